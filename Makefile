@@ -1,0 +1,26 @@
+# Two entry points: `make demo` and `make test`. Both set everything up from nothing.
+VENV := .venv
+BIN := $(VENV)/bin
+DEMO_OUT := demo-output
+
+.PHONY: setup demo test clean
+
+setup: $(VENV)/.installed
+
+$(VENV)/.installed: pyproject.toml scripts/install-system-deps.sh
+	bash scripts/install-system-deps.sh
+	python3 -m venv $(VENV)
+	$(BIN)/pip install --quiet -e '.[dev]'
+	touch $@
+
+demo: setup
+	$(BIN)/render-dataset --probes probes --svbrdfs scenes/materials --out $(DEMO_OUT)/dataset \
+		--resolution 128 --render-size 192 --rotations 2 --crops 2 --spp 256 --workers 2 \
+		--test-materials 0 --test-probes 0
+	@echo "Contact sheet: $(DEMO_OUT)/dataset/contact_sheet.png"
+
+test: setup
+	$(BIN)/python -m pytest -q
+
+clean:
+	rm -rf $(VENV) $(DEMO_OUT)

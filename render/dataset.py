@@ -1,0 +1,294 @@
+"""``render-dataset``: labeled (photo, reduced SVBRDF) pairs rendered with Mitsuba 3.
+
+Work is split into tasks, one per (material, probe, rotation): a task renders the material
+under the probe at a random rotation (and view, if enabled), then cuts ``crops`` random crops,
+each turned by a random quarter turn, auto-exposed and clamped. Every random choice comes from
+a generator seeded by (seed, material, probe, rotation), so the output does not depend on the
+number of workers or on the order in which tasks run.
+
+Output folder (docs/dataset-format.md):
+    config.json             the resolved configuration
+    samples/<id>.npz        image, albedo, normal, log_specular, log_roughness, provenance
+    tasks/<task>.json       written last by each task: its samples' provenance (resume marker)
+    index.json              every sample with its split and provenance, written at the end
+    contact_sheet.png       a few samples for people to look at
+"""
+
+import dataclasses
+import json
+import logging
+import multiprocessing
+import os
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from render.atomic_files import write_json, write_npz
+from render.contact_sheet import write_contact_sheet
+from render.crops import relative_labels, rotate_quarter_turns
+from render.errors import InputError
+from render.exposure import DEFAULT_KEY, expose
+from render.materials import find_materials, load_material, resample
+from render.probes import find_probes, load_probe
+from render.scene import DEFAULT_SAMPLER
+
+log = logging.getLogger(__name__)
+CONTACT_SHEET_ROWS = 12
+# Changing these does not change the samples, so a resumed run may use other values.
+RESUMABLE_FIELDS = ("workers", "out")
+
+
+@dataclass(frozen=True)
+class DatasetConfig:
+    probes: str
+    """Folder of equirectangular HDR probes (.exr, .hdr)."""
+    svbrdfs: str
+    """Folder with one sub-folder per material (maps and optional material.json)."""
+    out: str
+    """Output dataset folder; re-running with the same options resumes an interrupted run."""
+    resolution: int = 256
+    """Side of each output sample in pixels."""
+    render_size: int = 512
+    """Shorter side of the rendered canvas; material maps are resampled to it."""
+    rotations: int = 9
+    """Random probe rotations (renders) per (material, probe), as in the paper."""
+    crops: int = 4
+    """Random crops (each with a random quarter turn) cut from each render."""
+    spp: int = 1024
+    """Samples per pixel of each render."""
+    sampler: str = DEFAULT_SAMPLER
+    """Mitsuba sampler plugin (stratified kinds converge much faster than 'independent')."""
+    seed: int = 0
+    """Seed of every random choice; the same seed gives the same dataset."""
+    workers: int = 1
+    """Worker processes rendering tasks in parallel."""
+    variant: str = "llvm_ad_rgb"
+    """Mitsuba variant, e.g. llvm_ad_rgb (CPU) or cuda_ad_rgb (GPU)."""
+    test_materials: float = 0.2
+    """Fraction of materials held out for the test split."""
+    test_probes: float = 0.2
+    """Fraction of probes held out for the test split (test samples pair test materials with
+    test probes; mixed pairs are not rendered)."""
+    exposure_key: float = DEFAULT_KEY
+    """Mean luminance of each exposed sample before clamping to [0, 1]."""
+    max_view_angle: float = 0.0
+    """Largest angle in degrees between the view and the normal; 0 is fronto-parallel."""
+
+    def validate(self):
+        if self.resolution < 8:
+            raise ValueError("--resolution must be at least 8")
+        if self.render_size < self.resolution:
+            raise ValueError("--render-size must be at least --resolution")
+        for name in ("rotations", "crops", "spp", "workers"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"--{name} must be at least 1")
+        if not (0 <= self.test_materials < 1 and 0 <= self.test_probes < 1):
+            raise ValueError("--test-materials and --test-probes must be in [0, 1)")
+        if not 0 <= self.max_view_angle < 90:
+            raise ValueError("--max-view-angle must be in [0, 90)")
+
+
+@dataclass(frozen=True)
+class Task:
+    material: Path
+    probe: Path
+    rotation: int
+    split: str
+
+    @property
+    def name(self):
+        return f"{self.material.name}__{self.probe.stem}__r{self.rotation:02d}"
+
+
+def split_names(names, fraction, seed, salt):
+    """Names held out for testing: a seeded random ``fraction`` (at least one if the fraction
+    is positive, never all)."""
+    count = min(len(names) - 1, max(1, round(fraction * len(names)))) if fraction > 0 else 0
+    order = np.random.default_rng([seed, salt]).permutation(len(names))
+    return {names[i] for i in order[:count]}
+
+
+def plan_tasks(cfg, materials, probes):
+    test_materials = split_names([m.name for m in materials], cfg.test_materials, cfg.seed, 1)
+    test_probes = split_names([p.stem for p in probes], cfg.test_probes, cfg.seed, 2)
+    tasks = []
+    for material in materials:
+        for probe in probes:
+            in_test = (material.name in test_materials, probe.stem in test_probes)
+            if in_test[0] != in_test[1]:
+                continue
+            split = "test" if in_test[0] else "train"
+            tasks.extend(Task(material, probe, r, split) for r in range(cfg.rotations))
+    return tasks
+
+
+def task_rng(cfg, task):
+    """The generator of every random choice of a task, independent of run order."""
+    key = [cfg.seed, zlib.crc32(task.material.name.encode()), zlib.crc32(task.probe.stem.encode()),
+           task.rotation]
+    return np.random.default_rng(key)
+
+
+def random_view(rng, max_angle_deg):
+    """Unit view direction, uniform in solid angle within ``max_angle_deg`` of +z."""
+    cos_max = np.cos(np.radians(max_angle_deg))
+    cos_t = 1 - rng.random() * (1 - cos_max)
+    phi = 2 * np.pi * rng.random()
+    sin_t = np.sqrt(max(0.0, 1 - cos_t * cos_t))
+    return np.array([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t])
+
+
+class TaskRenderer:
+    """Renders tasks in one process, keeping loaded materials and probes."""
+
+    def __init__(self, cfg, threads=None):
+        from render.scene import PlanarSampleRenderer  # imports Mitsuba
+
+        self.cfg = cfg
+        self.renderer = PlanarSampleRenderer(cfg.variant, cfg.spp, cfg.sampler, threads)
+        self._materials, self._probes = {}, {}
+
+    def _material(self, folder):
+        if folder not in self._materials:
+            self._materials[folder] = resample(load_material(folder), self.cfg.render_size)
+        return self._materials[folder]
+
+    def _probe(self, path):
+        if path not in self._probes:
+            self._probes[path] = load_probe(path)
+        return self._probes[path]
+
+    def run(self, task):
+        """Render ``task``, write its samples and its marker; returns the sample records."""
+        cfg, out = self.cfg, Path(self.cfg.out)
+        svbrdf, probe = self._material(task.material), self._probe(task.probe)
+        rng = task_rng(cfg, task)
+        rotation_deg = float(rng.uniform(0, 360))
+        view = random_view(rng, cfg.max_view_angle)
+        height, width = svbrdf.albedo.shape[:2]
+        crops = [(int(rng.integers(0, height - cfg.resolution + 1)),
+                  int(rng.integers(0, width - cfg.resolution + 1)), int(rng.integers(4)))
+                 for _ in range(cfg.crops)]
+        render_seed = int(rng.integers(1 << 31))
+        hdr = self.renderer.render(svbrdf, probe, rotation_deg, view, render_seed)
+
+        records = []
+        for index, (top, left, turns) in enumerate(crops):
+            window = np.s_[top:top + cfg.resolution, left:left + cfg.resolution]
+            image, albedo, normal = rotate_quarter_turns(
+                hdr[window], svbrdf.albedo[window], svbrdf.normal[window], turns)
+            exposed, exposure = expose(image, cfg.exposure_key)
+            albedo_rel, log_specular = relative_labels(albedo, svbrdf.specular)
+            record = {
+                "id": f"{task.name}_c{index:02d}", "split": task.split,
+                "material": task.material.name, "probe": task.probe.stem,
+                "material_class": svbrdf.material_class, "material_sources": svbrdf.sources,
+                "probe_white_balance": probe.white_balance.tolist(),
+                "rotation_index": task.rotation, "rotation_deg": rotation_deg,
+                "view": view.tolist(), "crop": {"top": top, "left": left,
+                                                "size": cfg.resolution, "quarter_turns": turns},
+                "exposure": exposure, "render_seed": render_seed, "spp": cfg.spp,
+                "sampler": cfg.sampler, "variant": cfg.variant,
+            }
+            record["file"] = f"samples/{record['id']}.npz"
+            write_npz(out / record["file"], image=exposed.astype(np.float16),
+                      albedo=albedo_rel.astype(np.float16), normal=normal.astype(np.float16),
+                      log_specular=log_specular.astype(np.float32),
+                      log_roughness=np.array([np.log(svbrdf.roughness)], np.float32),
+                      provenance=np.array(json.dumps(record)))
+            records.append(record)
+        write_json(out / "tasks" / f"{task.name}.json", {"task": task.name, "samples": records})
+        return records
+
+
+def validate_inputs(cfg):
+    """Load every material and probe once, so bad input fails before any rendering."""
+    materials, probes = find_materials(cfg.svbrdfs), find_probes(cfg.probes)
+    for folder in materials:
+        load_material(folder)
+    for path in probes:
+        load_probe(path)
+    return materials, probes
+
+
+def _config_dict(cfg):
+    return dataclasses.asdict(cfg)
+
+
+def _check_resume(cfg, out):
+    """Refuse to mix samples of two different configurations in one folder."""
+    path = out / "config.json"
+    if not path.exists():
+        return
+    previous = json.loads(path.read_text())
+    current = _config_dict(cfg)
+    differing = sorted(k for k in current if k not in RESUMABLE_FIELDS
+                       and previous.get(k) != current[k])
+    if differing:
+        raise InputError(path, f"this folder holds a dataset made with other options "
+                               f"(differing: {', '.join(differing)}); use a new --out")
+
+
+_worker = None
+
+
+def _init_worker(cfg, threads):
+    global _worker
+    _worker = TaskRenderer(cfg, threads)
+
+
+def _run_in_worker(task):
+    return _worker.run(task)
+
+
+def run(cfg):
+    """Render the dataset described by ``cfg`` (resuming if ``cfg.out`` holds a partial run)."""
+    cfg.validate()
+    out = Path(cfg.out)
+    materials, probes = validate_inputs(cfg)
+    _check_resume(cfg, out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / "config.json", _config_dict(cfg))
+
+    tasks = plan_tasks(cfg, materials, probes)
+    pending = [t for t in tasks if not (out / "tasks" / f"{t.name}.json").exists()]
+    log.info("%d tasks (%d samples), %d already done", len(tasks), len(tasks) * cfg.crops,
+             len(tasks) - len(pending))
+    with tqdm(total=len(tasks) * cfg.crops, initial=(len(tasks) - len(pending)) * cfg.crops,
+              unit="sample", desc="render-dataset") as progress:
+        if cfg.workers == 1:
+            renderer = TaskRenderer(cfg)
+            for task in pending:
+                progress.update(len(renderer.run(task)))
+        else:
+            threads = max(1, (os.cpu_count() or 1) // cfg.workers)
+            context = multiprocessing.get_context("spawn")
+            with context.Pool(cfg.workers, _init_worker, (cfg, threads)) as pool:
+                for records in pool.imap_unordered(_run_in_worker, pending):
+                    progress.update(len(records))
+    return finish(cfg, tasks)
+
+
+def finish(cfg, tasks):
+    """Write index.json and the contact sheet from the task markers; returns the index."""
+    out = Path(cfg.out)
+    samples = []
+    for task in tasks:
+        samples.extend(json.loads((out / "tasks" / f"{task.name}.json").read_text())["samples"])
+    samples.sort(key=lambda s: s["id"])
+    index = {"config": _config_dict(cfg), "count": len(samples),
+             "splits": {s: sum(r["split"] == s for r in samples) for s in ("train", "test")},
+             "samples": samples}
+    write_json(out / "index.json", index)
+    picks = np.linspace(0, len(samples) - 1, min(CONTACT_SHEET_ROWS, len(samples))).astype(int)
+    shown = []
+    for i in sorted(set(picks.tolist())):
+        with np.load(out / samples[i]["file"]) as data:
+            shown.append({k: data[k].astype(np.float32) for k in
+                          ("image", "albedo", "normal", "log_specular", "log_roughness")}
+                         | {"provenance": samples[i]})
+    write_contact_sheet(out / "contact_sheet.png", shown)
+    return index
