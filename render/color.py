@@ -1,8 +1,13 @@
 """Color conversions. Linear RGB means Rec. 709 primaries with a linear transfer (Mitsuba's
 ``rgb`` variants); sRGB means the same primaries with the sRGB transfer function (IEC 61966-2-1)."""
 
-import colour
+import warnings
+
 import numpy as np
+
+with warnings.catch_warnings():  # colour-science warns about optional SciPy/Matplotlib features
+    warnings.simplefilter("ignore")
+    import colour
 
 REC709_LUMINANCE = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
 

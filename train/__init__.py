@@ -1,0 +1,1 @@
+"""Training side: reading datasets and (later) the networks. Never imports Mitsuba."""
