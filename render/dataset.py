@@ -252,6 +252,8 @@ def run(cfg):
     _check_resume(cfg, out)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "config.json", _config_dict(cfg))
+    for stale in [*out.glob("samples/.*.tmp*"), *out.glob("tasks/.*.tmp*")]:
+        stale.unlink()  # temporary files of a killed run; their task is redone below
 
     tasks = plan_tasks(cfg, materials, probes)
     pending = [t for t in tasks if not (out / "tasks" / f"{t.name}.json").exists()]

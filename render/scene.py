@@ -5,6 +5,7 @@ are HDR linear RGB radiance, (H, W, 3) float32, row 0 at the top, in texture spa
 (row, col) is the radiance leaving texel (row, col) toward the view direction.
 """
 
+import hashlib
 import tempfile
 from pathlib import Path
 
@@ -54,7 +55,7 @@ def _matrix_text(matrix):
 
 
 class PlanarSampleRenderer:
-    """Mitsuba renderer of planar samples; keeps the textures it has written for reuse."""
+    """Mitsuba renderer of planar samples; reuses the texture files it has already written."""
 
     def __init__(self, variant="llvm_ad_rgb", spp=1024, sampler=DEFAULT_SAMPLER, threads=None):
         self.mi = load_mitsuba(variant, threads)
@@ -64,8 +65,10 @@ class PlanarSampleRenderer:
         self._workdir = tempfile.TemporaryDirectory(prefix="sa-svbrdf-scene-")
         self._written = {}
 
-    def _exr_file(self, key, pixels):
-        """Write ``pixels`` once as an EXR file for Mitsuba to load; returns its path."""
+    def _exr_file(self, pixels):
+        """Write ``pixels`` once (keyed by content) as an EXR file for Mitsuba; its path."""
+        pixels = np.ascontiguousarray(pixels, np.float32)
+        key = (pixels.shape, hashlib.sha1(pixels.data).hexdigest())
         if key not in self._written:
             path = Path(self._workdir.name) / f"{len(self._written)}.exr"
             write_exr(path, pixels)
@@ -76,17 +79,16 @@ class PlanarSampleRenderer:
         """HDR radiance (H, W, 3) of ``svbrdf`` under ``probe`` rotated by ``rotation_deg``."""
         spp = spp or self.spp
         height, width = svbrdf.albedo.shape[:2]
-        material_key = (svbrdf.name, height, width, id(svbrdf.albedo))
         params = dict(
             spp=str(spp), sampler=self.sampler, width=str(width), height=str(height),
             crop_x="0", crop_width=str(width), aspect=repr(height / width),
             camera=_matrix_text(camera_to_world(view)),
             probe_to_world=_matrix_text(probe_to_world(rotation_deg)),
-            probe=self._exr_file(("probe", probe.name, id(probe.radiance)), probe.radiance),
+            probe=self._exr_file(probe.radiance),
             # Texture rows are flipped: Mitsuba's texture v grows with world +y, while our
             # row 0 is the top (largest y) of the sample.
-            albedo=self._exr_file(("albedo",) + material_key, np.flipud(svbrdf.albedo)),
-            normal=self._exr_file(("normal",) + material_key, np.flipud(svbrdf.normal)),
+            albedo=self._exr_file(np.flipud(svbrdf.albedo)),
+            normal=self._exr_file(np.flipud(svbrdf.normal)),
             specular=" ".join(repr(float(v)) for v in svbrdf.specular),
             alpha=repr(float(svbrdf.roughness)))
         rows_per_strip = max(1, self.lane_budget // (width * spp))

@@ -1,0 +1,51 @@
+"""Shared fixtures: Mitsuba, small synthetic inputs written to temporary folders, shared data."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from render.images import write_exr
+
+REPO = Path(__file__).resolve().parent.parent
+SHARED_DATA = REPO.parent / "shared" / "data"
+BUNDLED_PROBES = REPO / "probes"
+BUNDLED_MATERIALS = REPO / "scenes" / "materials"
+
+needs_shared = pytest.mark.skipif(not SHARED_DATA.is_dir(),
+                                  reason="../shared/data is not present on this machine")
+
+
+@pytest.fixture(scope="session")
+def mi():
+    from render.mitsuba_setup import load_mitsuba
+
+    return load_mitsuba("llvm_ad_rgb")
+
+
+@pytest.fixture(scope="session")
+def renderer(mi):
+    from render.scene import PlanarSampleRenderer
+
+    return PlanarSampleRenderer("llvm_ad_rgb", spp=256)
+
+
+def write_png(path, pixels):
+    """Write float pixels in [0, 1], (H, W) or (H, W, 3), as an 8-bit PNG."""
+    Image.fromarray(np.round(np.clip(pixels, 0, 1) * 255).astype(np.uint8)).save(path)
+
+
+def make_probe(path, radiance):
+    write_exr(path, np.asarray(radiance, np.float32))
+    return Path(path)
+
+
+def make_material(folder, albedo, **maps):
+    """A material folder with ``<name>_albedo.png`` and any ``<name>_<suffix>.png`` maps."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    write_png(folder / "m_albedo.png", albedo)
+    for suffix, pixels in maps.items():
+        write_png(folder / f"m_{suffix}.png", pixels)
+    return folder
