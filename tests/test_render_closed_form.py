@@ -71,7 +71,7 @@ def _patch_probe(column_fraction):
     (0.0, (1, 0), 0.0, True),      # azimuth 0 is +x
     (0.0, (1, 0), 180.0, False),   # rotating the probe by 180 degrees moves the light to -x
     (0.75, (0, 1), 0.0, True),     # azimuth +90 degrees (+y, image up) is column 3W/4
-    (0.75, (0, 1), 90.0, False),   # counter-clockwise rotation by 90 degrees moves it to -x
+    (0.75, (1, 0), 90.0, False),   # counter-clockwise rotation by 90 degrees moves it to -x
     (0.75, (-1, 0), 90.0, True),
 ])
 def test_probe_and_normal_orientation(renderer, column_fraction, toward, rotation, brighter):
