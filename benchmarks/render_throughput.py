@@ -1,0 +1,71 @@
+"""Benchmark of render-dataset's Mitsuba renders: images per second at 256x256 at a given
+sample count, and how converged those images are (PSNR against a render with 16 times the
+samples, on the auto-exposed, clamped [0, 1] images). Prints JSON.
+
+    python benchmarks/render_throughput.py [--spp 1024] [--pairs 4] [--shared]
+
+With --shared, materials and probes come from ../shared/data (the hardest probes, with the
+sun, included); otherwise from the bundled ones.
+"""
+
+import json
+import platform
+import time
+from pathlib import Path
+
+import click
+import numpy as np
+
+from render.exposure import exposure_scale
+from render.materials import find_materials, load_material, resample
+from render.probes import find_probes, load_probe
+from render.scene import PlanarSampleRenderer
+
+REPO = Path(__file__).resolve().parent.parent
+SHARED = REPO.parent / "shared" / "data"
+
+
+def psnr(image, reference, key):
+    scale = exposure_scale(reference, key)
+    a, b = (np.clip(x * scale, 0, 1) for x in (image, reference))
+    return float(10 * np.log10(1.0 / max(np.mean((a - b) ** 2), 1e-20)))
+
+
+@click.command()
+@click.option("--spp", default=1024, show_default=True)
+@click.option("--size", default=256, show_default=True)
+@click.option("--pairs", default=4, show_default=True, help="(material, probe) pairs to time.")
+@click.option("--sampler", default="multijitter", show_default=True)
+@click.option("--shared", is_flag=True, help="Use ../shared/data instead of bundled data.")
+def main(spp, size, pairs, sampler, shared):
+    root = SHARED if shared else None
+    materials = find_materials(root / "svbrdfs" if root else REPO / "scenes" / "materials")
+    probes = find_probes(root / "probes" if root else REPO / "probes")
+    rng = np.random.default_rng(0)
+    renderer = PlanarSampleRenderer("llvm_ad_rgb", spp=spp, sampler=sampler)
+    renderer.render(resample(load_material(materials[0]), 16), load_probe(probes[0]))  # JIT warm-up
+    cases = []
+    for i in range(pairs):
+        material = resample(load_material(materials[i % len(materials)]), size)
+        material = type(material)(material.name, material.albedo[:size, :size],
+                                  material.normal[:size, :size], material.specular,
+                                  material.roughness, material.sources)
+        probe = load_probe(probes[int(rng.integers(len(probes)))])
+        rotation = float(rng.uniform(0, 360))
+        start = time.perf_counter()
+        image = renderer.render(material, probe, rotation, seed=1)
+        seconds = time.perf_counter() - start
+        reference = renderer.render(material, probe, rotation, seed=2, spp=16 * spp)
+        cases.append({"material": material.name, "probe": probe.name, "seconds": seconds,
+                      "psnr_db_vs_16x": psnr(image, reference, 0.18)})
+    total = sum(c["seconds"] for c in cases)
+    print(json.dumps({
+        "benchmark": "render_throughput", "machine": platform.processor() or platform.machine(),
+        "size": size, "spp": spp, "sampler": sampler, "images_per_second": len(cases) / total,
+        "min_psnr_db_vs_16x": min(c["psnr_db_vs_16x"] for c in cases),
+        "mean_psnr_db_vs_16x": float(np.mean([c["psnr_db_vs_16x"] for c in cases])),
+        "cases": cases}, indent=2))
+
+
+if __name__ == "__main__":
+    main()
