@@ -43,3 +43,7 @@ def main(render_size, **options):
         raise click.ClickException(str(error)) from None
     click.echo(f"{index['count']} samples ({index['splits']['train']} train, "
                f"{index['splits']['test']} test) in {cfg.out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -33,7 +33,8 @@ def load_mitsuba(variant=DEFAULT_VARIANT, threads=None):
     """Import Mitsuba, set ``variant``, register ``sa_ward``; returns the ``mitsuba`` module.
 
     ``threads`` limits Dr.Jit's CPU thread pool (used when several worker processes share the
-    machine).
+    machine); it is raised to 2, since rendering hangs with a single-thread pool (seen with
+    drjit 1.5.0).
     """
     if variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
         path = _newest_libllvm()
@@ -47,7 +48,7 @@ def load_mitsuba(variant=DEFAULT_VARIANT, threads=None):
     if mi.variant() != variant:
         mi.set_variant(variant)
     if threads is not None and variant.startswith("llvm"):
-        dr.set_thread_count(threads)
+        dr.set_thread_count(max(2, threads))  # with fewer than 2 threads drjit 1.5 hangs
     from render import ward_bsdf
 
     importlib.reload(ward_bsdf)  # the plugin class subclasses the current variant's BSDF
