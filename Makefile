@@ -15,8 +15,7 @@ $(VENV)/.installed: pyproject.toml scripts/install-system-deps.sh
 
 demo: setup
 	$(BIN)/render-dataset --probes probes --svbrdfs scenes/materials --out $(DEMO_OUT)/dataset \
-		--resolution 128 --render-size 192 --rotations 2 --crops 2 --spp 256 --workers 2 \
-		--test-materials 0 --test-probes 0
+		--resolution 128 --render-size 192 --rotations 2 --crops 2 --workers 2
 	@echo "Contact sheet: $(DEMO_OUT)/dataset/contact_sheet.png"
 
 test: setup
