@@ -106,7 +106,6 @@ def test_resume_after_kill_9(reference_dataset, tmp_path):
     assert not (partial / "index.json").exists()
     result = CliRunner().invoke(main, command[3:])
     assert result.exit_code == 0, result.output
-    assert f"{done} already done" in result.output or done >= 1
     assert not list(partial.rglob(".*.tmp*"))
     assert_same_samples(sample_arrays(out), sample_arrays(partial))
 
