@@ -214,17 +214,13 @@ def validate_inputs(cfg):
     return materials, probes
 
 
-def _config_dict(cfg):
-    return dataclasses.asdict(cfg)
-
-
 def _check_resume(cfg, out):
     """Refuse to mix samples of two different configurations in one folder."""
     path = out / "config.json"
     if not path.exists():
         return
     previous = json.loads(path.read_text())
-    current = _config_dict(cfg)
+    current = dataclasses.asdict(cfg)
     differing = sorted(k for k in current if k not in RESUMABLE_FIELDS
                        and previous.get(k) != current[k])
     if differing:
@@ -251,7 +247,7 @@ def run(cfg):
     materials, probes = validate_inputs(cfg)
     _check_resume(cfg, out)
     out.mkdir(parents=True, exist_ok=True)
-    write_json(out / "config.json", _config_dict(cfg))
+    write_json(out / "config.json", dataclasses.asdict(cfg))
     for stale in [*out.glob("samples/.*.tmp*"), *out.glob("tasks/.*.tmp*")]:
         stale.unlink()  # temporary files of a killed run; their task is redone below
 
@@ -281,7 +277,7 @@ def finish(cfg, tasks):
     for task in tasks:
         samples.extend(json.loads((out / "tasks" / f"{task.name}.json").read_text())["samples"])
     samples.sort(key=lambda s: s["id"])
-    index = {"config": _config_dict(cfg), "count": len(samples),
+    index = {"config": dataclasses.asdict(cfg), "count": len(samples),
              "splits": {s: sum(r["split"] == s for r in samples) for s in ("train", "test")},
              "samples": samples}
     write_json(out / "index.json", index)

@@ -54,9 +54,7 @@ def _read_ldr(path):
             image.load()
             if image.mode == "P":
                 image = image.convert("RGBA")
-            if image.mode in ("I;16", "I;16B", "I;16L"):
-                return np.asarray(image, dtype=np.float32) / 65535.0
-            if image.mode == "I":
+            if image.mode in ("I", "I;16", "I;16B", "I;16L"):  # 16-bit files
                 return np.asarray(image, dtype=np.float32) / 65535.0
             if image.mode not in ("L", "LA", "RGB", "RGBA"):
                 image = image.convert("RGB")

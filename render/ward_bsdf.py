@@ -118,9 +118,6 @@ class WardSVBRDF(mi.BSDF):
         callback.put("albedo", self.albedo, mi.ParamFlags.NonDifferentiable)
         callback.put("normal", self.normal, mi.ParamFlags.NonDifferentiable)
 
-    def parameters_changed(self, keys):
-        pass
-
     def to_string(self):
         return f"WardSVBRDF[specular={self.specular}, alpha={self.alpha}]"
 
