@@ -87,22 +87,33 @@ def _clamp_negative(path, radiance):
     return np.maximum(radiance, 0.0)
 
 
-def plane_irradiance(radiance):
-    """Irradiance on the upward plane, (3,): the integral of L cos(theta) over the upper
-    hemisphere, with L interpolated bilinearly between samples as in the module docstring.
-    Linear interpolation keeps each row's mean along phi, so only the latitude weights need
-    integrating, done with 64 midpoints per row.
+def latitude_weights(height, profile, steps_per_row=64):
+    """Weights (H,) that integrate a probe's bilinear interpolant over the upper hemisphere.
+
+    Row i's weight is the integral over theta in [0, pi/2] of its linear "tent" (1 at
+    theta_i, 0 at the neighbouring rows) times ``profile(theta)``; with profile = sin this is
+    the solid angle per unit azimuth a row stands for. Midpoint rule, ``steps_per_row`` steps.
     """
-    height, width = radiance.shape[:2]
-    steps = 64 * height
+    steps = steps_per_row * height
     theta = (np.arange(steps) + 0.5) * (np.pi / 2 / steps)  # midpoints in [0, pi/2]
     row = theta * (height - 1) / np.pi
     below = np.floor(row)
     frac = row - below
-    weight = np.cos(theta) * np.sin(theta) * (np.pi / 2 / steps)
+    weight = profile(theta) * (np.pi / 2 / steps)
     band = np.zeros(height)
     np.add.at(band, below.astype(int), weight * (1 - frac))
     np.add.at(band, np.minimum(below + 1, height - 1).astype(int), weight * frac)
+    return band
+
+
+def plane_irradiance(radiance):
+    """Irradiance on the upward plane, (3,): the integral of L cos(theta) over the upper
+    hemisphere, with L interpolated bilinearly between samples as in the module docstring.
+    Linear interpolation keeps each row's mean along phi, so only the latitude weights need
+    integrating.
+    """
+    height, width = radiance.shape[:2]
+    band = latitude_weights(height, lambda theta: np.cos(theta) * np.sin(theta))
     row_sums = radiance.astype(np.float64).sum(axis=1) * (2 * np.pi / width)  # (H, 3)
     return band @ row_sums
 
