@@ -45,14 +45,16 @@ from render.probes import latitude_weights, plane_irradiance
 DEFAULT_KEY = 0.18
 REC709_LUMINANCE = (0.2126, 0.7152, 0.0722)
 
-DIFFUSE_BLOCK = 8
-GLOSSY_BLOCK = 4
+DIFFUSE_BLOCK_ANGLE = 0.1  # radians
+GLOSSY_BLOCK_ANGLE = 0.05
 DIFFUSE_TABLE = 25
 CELLS_PER_SIGMA = 2.0
+BROAD_CELLS_PER_SIGMA = 6.0
 STENCIL_SIGMAS = 3.0
 NODES_PER_SIGMA = 3.0
 MAX_REFINEMENT = 8
 BROAD_ROUGHNESS = 0.12
+LOOKUP = "bicubic"
 ENTRY_CHUNK_LANES = 1 << 20  # (table entries x stencil cells) evaluated at once
 
 
@@ -124,8 +126,9 @@ def _refined_nodes(radiance, factor):
 
 
 def _blocks(energy, directions, size):
-    """Sum energies over size x size nodes; place each block at its luminance-weighted mean
-    direction (the plain mean direction where it holds no light). (P, N, 3) twice."""
+    """Sum energies over size x size nodes, and the blocks' luminance-weighted mean directions
+    (not normalized: the diffuse term of a block that the normal sees whole is then exact;
+    the plain mean where a block holds no light). (P, N, 3) twice."""
     pad = -energy.shape[1] % size
     energy = np.pad(energy, ((0, 0), (0, pad), (0, 0), (0, 0)))
     directions = np.pad(directions, ((0, pad), (0, 0), (0, 0)), mode="edge")
@@ -133,10 +136,10 @@ def _blocks(energy, directions, size):
     shape = (count, rows // size, size, width // size, size, 3)
     block_energy = energy.reshape(shape).sum(axis=(2, 4))
     weight = energy @ np.array(REC709_LUMINANCE)
+    total = weight.reshape(shape[:-1]).sum(axis=(2, 4))[..., None]
     weighted = (directions[None] * weight[..., None]).reshape(shape).sum(axis=(2, 4))
-    plain = directions.reshape(shape[1:]).sum(axis=(1, 3))
-    mean = np.where(np.linalg.norm(weighted, axis=-1, keepdims=True) > 0, weighted, plain[None])
-    mean /= np.linalg.norm(mean, axis=-1, keepdims=True)
+    plain = directions.reshape(shape[1:]).mean(axis=(1, 3))
+    mean = np.where(total > 0, weighted / np.maximum(total, 1e-300), plain[None])
     return block_energy.reshape(count, -1, 3), mean.reshape(count, -1, 3)
 
 
@@ -178,7 +181,9 @@ class _Layout:
     def __init__(self, p_pixels, roughness, probe_height):
         with torch.no_grad():
             sigma = roughness.detach().double() / math.sqrt(2)  # angular std of the half vector
-            step = sigma / (2 * CELLS_PER_SIGMA)  # the stereographic map halves angles at +z
+            broad = roughness.detach() >= BROAD_ROUGHNESS  # computed from probe blocks
+            cells = torch.where(broad, BROAD_CELLS_PER_SIGMA, CELLS_PER_SIGMA).double()
+            step = sigma / (2 * cells)  # the stereographic map halves angles at +z
             step = torch.exp2(torch.floor(4 * torch.log2(step)) / 4)
             flat = p_pixels.detach().double().flatten(1, 2)  # (B, HW, 2)
             low = torch.floor(flat.amin(1) / step[:, None])
@@ -197,11 +202,22 @@ class _Layout:
         self.origin = low  # (B, 2): table entry (0, 0) sits at p = origin * step
         self.size = (high - low).long() + 1  # (B, 2) entries per axis (x, y)
         self.table = int(self.size.max())
-        self.broad = roughness.detach() >= BROAD_ROUGHNESS  # (B,) computed from probe blocks
+        self.broad = broad  # (B,)
+        # Probe blocks for broad lobes: GLOSSY_BLOCK_ANGLE wide at BROAD_ROUGHNESS and in
+        # proportion to roughness above, so a block stays a fixed fraction of the lobe.
+        width = GLOSSY_BLOCK_ANGLE * roughness.detach().double() / BROAD_ROUGHNESS
+        self.block = block_size(width, probe_height)
         sharp_radius = torch.ceil(radius / step)[~self.broad]
         self.radius = int(sharp_radius.max()) if len(sharp_radius) else 0
         self.lattice = self.table + 2 * self.radius
         self.refinement = factor.clamp(1, MAX_REFINEMENT).long()  # (B,)
+
+
+def block_size(angle, probe_height):
+    """Nodes per side of the probe blocks at most ``angle`` radians wide: a power of two."""
+    spacing = math.pi / (probe_height - 1)
+    angle = torch.as_tensor(angle, dtype=torch.float64)
+    return torch.exp2(torch.floor(torch.log2(angle / spacing)).clamp(0, 5)).long()
 
 
 def _lattice_directions(origin, step, first, size):
@@ -222,7 +238,7 @@ def _lookup(table, coordinates, sizes):
     """Bilinear lookup of tables (B, 3, T, T) at coordinates (B, H, W, 2) in entries."""
     scale = 2.0 / (sizes - 1)
     grid = coordinates * scale - 1
-    return torch.nn.functional.grid_sample(table, grid, mode="bilinear",
+    return torch.nn.functional.grid_sample(table, grid, mode=LOOKUP,
                                            padding_mode="border", align_corners=True)
 
 
@@ -237,7 +253,7 @@ def _diffuse_tables(probes, probe_index, rotation, layout, dtype):
     py = low[:, 1, None] + span[:, 1, None] * fraction
     p = torch.stack(torch.broadcast_tensors(px[:, None, :], py[:, :, None]), -1)
     normals = inverse_stereographic(p).reshape(batch, -1, 3)
-    energy, directions = probes.blocks(DIFFUSE_BLOCK)
+    energy, directions = probes.blocks(int(block_size(DIFFUSE_BLOCK_ANGLE, probes.height)))
     directions = _rotate_z(directions[probe_index].to(dtype), rotation)
     cosines = torch.relu(normals @ directions.transpose(1, 2))
     table = cosines @ energy[probe_index].to(dtype) / math.pi
@@ -290,8 +306,7 @@ def _specular_tables(lattice_energy, view, roughness, layout, entries, dtype):
     results = []
     for start in range(0, entries.shape[0], chunk):
         b, y, x = entries[start:start + chunk].unbind(1)
-        p_entry = (torch.stack([x, y], -1).to(dtype) + origin[b]) * step[b][:, None]
-        normal = inverse_stereographic(p_entry)
+        normal = _entry_normals(layout, b, y, x, dtype)
         flat = (b[:, None] * size + y[:, None] + radius + oy) * size + x[:, None] + radius + ox
         h, h_dot_v, energy = vertex[flat].split([3, 1, 3], -1)
         cos_h = (h @ normal[:, :, None]).squeeze(-1)
@@ -302,23 +317,35 @@ def _specular_tables(lattice_energy, view, roughness, layout, entries, dtype):
     return torch.cat(results) if results else lattice_energy.new_zeros(0, 3)
 
 
-def _broad_specular_tables(probes, probe_index, rotation, view, roughness, layout, dtype):
-    """S on the whole tables of the broad-lobe samples, (S, T', T', 3): the probe's blocks
-    weighted by the exact kernel (a block is small next to a broad lobe)."""
-    samples = layout.broad.nonzero().squeeze(1)
-    size = int(layout.size[samples].max())
-    normals = _lattice_directions(layout.origin[samples].to(dtype),
-                                  layout.step[samples].to(dtype), 0, size).flatten(1, 2)
-    energy, directions = probes.blocks(GLOSSY_BLOCK)
-    light = _rotate_z(directions[probe_index[samples]].to(dtype), rotation[samples])
-    v = view[samples]
-    h = torch.nn.functional.normalize(light + v[:, None, :], dim=-1)
-    cos_i = normals @ light.transpose(1, 2)
-    cos_h = normals @ h.transpose(1, 2)
-    cos_o = normals @ v[:, :, None]
-    weight = ward_kernel(cos_h, cos_i, cos_o, roughness[samples][:, None, None])
-    table = weight @ energy[probe_index[samples]].to(dtype)
-    return samples, table.reshape(len(samples), size, size, 3)
+def _entry_normals(layout, b, y, x, dtype):
+    """Unit normals (E, 3) of table entries (sample b, row y, column x)."""
+    p = (torch.stack([x, y], -1).to(dtype) + layout.origin[b].to(dtype)) \
+        * layout.step[b].to(dtype)[:, None]
+    return inverse_stereographic(p)
+
+
+def _broad_specular_tables(probes, probe_index, rotation, view, roughness, layout, entries,
+                           dtype):
+    """S at table entries (E, 3) of broad-lobe samples: the probe's blocks weighted by the
+    exact kernel, a block being small next to a broad lobe. Yields (entries, values (E', 3))
+    per block size."""
+    sample_block = layout.block[entries[:, 0]]
+    for block in sample_block.unique().tolist():
+        energy, directions = probes.blocks(block)
+        rows = entries[sample_block == block]
+        chunk = max(1, ENTRY_CHUNK_LANES // directions.shape[1])
+        for start in range(0, len(rows), chunk):
+            part = rows[start:start + chunk]
+            b, y, x = part.unbind(1)
+            normal = _entry_normals(layout, b, y, x, dtype)[:, :, None]
+            light = torch.nn.functional.normalize(
+                _rotate_z(directions[probe_index[b]].to(dtype), rotation[b]), dim=-1)
+            v = view[b]
+            h = torch.nn.functional.normalize(light + v[:, None, :], dim=-1)
+            cos_o = (normal[:, :, 0] * v).sum(-1, keepdim=True)
+            weight = ward_kernel((h @ normal).squeeze(-1), (light @ normal).squeeze(-1), cos_o,
+                                 roughness[b][:, None])
+            yield part, (weight[:, None, :] @ energy[probe_index[b]].to(dtype)).squeeze(1)
 
 
 def _touched_entries(coordinates, layout):
@@ -330,9 +357,11 @@ def _touched_entries(coordinates, layout):
     touched = torch.zeros(batch, table, table, dtype=torch.bool, device=coordinates.device)
     sample = torch.arange(batch, device=coordinates.device)[:, None, None].expand(
         corner.shape[:3])
-    for dx in (0, 1):
-        for dy in (0, 1):
-            touched[sample, corner[..., 1] + dy, corner[..., 0] + dx] = True
+    reach = (0, 1) if LOOKUP == "bilinear" else (-1, 0, 1, 2)
+    for dx in reach:
+        for dy in reach:
+            touched[sample, (corner[..., 1] + dy).clamp(0, table - 1),
+                    (corner[..., 0] + dx).clamp(0, table - 1)] = True
     return touched.nonzero()
 
 
@@ -366,16 +395,15 @@ def render(albedo, normal, specular, roughness, probes, probe_index, rotation_de
 
     table = torch.zeros(batch, layout.table, layout.table, 3, dtype=dtype, device=device)
     entries = _touched_entries(coordinates, layout)
-    entries = entries[~layout.broad[entries[:, 0]]]
-    if len(entries):
+    broad = layout.broad[entries[:, 0]]
+    sharp = entries[~broad]
+    if len(sharp):
         lattice_energy = _splat_half_vectors(probes, probe_index, rotation, view, layout, dtype)
-        values = _specular_tables(lattice_energy, view, roughness, layout, entries, dtype)
-        table = table.index_put((entries[:, 0], entries[:, 1], entries[:, 2]), values)
-    if layout.broad.any():
-        samples, broad = _broad_specular_tables(probes, probe_index, rotation, view, roughness,
-                                                layout, dtype)
-        table = table.index_put((samples,), torch.nn.functional.pad(
-            broad, (0, 0, 0, layout.table - broad.shape[2], 0, layout.table - broad.shape[1])))
+        values = _specular_tables(lattice_energy, view, roughness, layout, sharp, dtype)
+        table = table.index_put((sharp[:, 0], sharp[:, 1], sharp[:, 2]), values)
+    for part, values in _broad_specular_tables(probes, probe_index, rotation, view, roughness,
+                                               layout, entries[broad], dtype):
+        table = table.index_put((part[:, 0], part[:, 1], part[:, 2]), values)
     glossy = _lookup(table.permute(0, 3, 1, 2), coordinates, layout.table)
 
     facing = ((unit_normal * view[:, :, None, None]).sum(1, keepdim=True) > 0).to(dtype)

@@ -1,0 +1,124 @@
+"""Benchmark of the torch renderer: images per second for a batch at 256x256, and the speed-up
+over Mitsuba rendering the same images to the same error, in the same run. Prints JSON.
+
+    python benchmarks/torch_renderer_throughput.py [--batch 16] [--size 256] [--shared]
+        [--device cpu|cuda] [--compare 4] [--reference-spp 4096]
+
+The batch draws materials, probes, rotations and roughness (log-uniform in [0.02, 1]) at
+random. For the first ``--compare`` images, a Mitsuba render at ``--reference-spp`` is the
+reference; the torch error is the worst PSNR (exposed, clamped images) against it. Mitsuba
+then renders the same images at 16, 32, 64, ... spp until its worst PSNR against the same
+reference reaches the torch one; its time per image at that count is compared with the torch
+time per image.
+"""
+
+import dataclasses
+import json
+import platform
+import time
+from pathlib import Path
+
+import click
+import numpy as np
+import torch
+
+from render.exposure import expose
+from render.materials import find_materials, load_material
+from render.probes import find_probes, load_probe
+from render.renderer_check import psnr, square_crop
+from render.torch_renderer import ProbeBank, render
+
+REPO = Path(__file__).resolve().parent.parent
+SHARED = REPO.parent / "shared" / "data"
+
+
+def worst_psnr(images, references):
+    return min(psnr(expose(a)[0], expose(b)[0]) for a, b in zip(images, references))
+
+
+@click.command()
+@click.option("--batch", default=16, show_default=True)
+@click.option("--size", default=256, show_default=True)
+@click.option("--repeats", default=5, show_default=True, help="Timed batches (median kept).")
+@click.option("--device", default="cpu", show_default=True)
+@click.option("--compare", default=4, show_default=True,
+              help="Images also rendered with Mitsuba (0: no comparison).")
+@click.option("--reference-spp", default=4096, show_default=True)
+@click.option("--shared", is_flag=True, help="Use ../shared/data instead of bundled data.")
+@click.option("--seed", default=0, show_default=True)
+def main(batch, size, repeats, device, compare, reference_spp, shared, seed):
+    data = SHARED if shared else REPO
+    probe_dir, material_dir = ((data / "probes", data / "svbrdfs") if shared
+                               else (REPO / "probes", REPO / "scenes" / "materials"))
+    probes = [load_probe(p) for p in find_probes(probe_dir)]
+    materials = [load_material(m) for m in find_materials(material_dir)]
+    rng = np.random.default_rng(seed)
+    chosen = rng.integers(0, len(materials), batch)
+    maps = [square_crop(materials[i], size) for i in chosen]
+    probe_index = rng.integers(0, len(probes), batch)
+    rotation = rng.uniform(0, 360, batch)
+    roughness = np.exp(rng.uniform(np.log(0.02), 0, batch))
+    specular = np.stack([materials[i].specular for i in chosen])
+
+    bank = ProbeBank([p.radiance for p in probes], device=device)
+    inputs = dict(
+        albedo=torch.from_numpy(np.stack([m[0] for m in maps])).permute(0, 3, 1, 2).to(device),
+        normal=torch.from_numpy(np.stack([m[1] for m in maps])).permute(0, 3, 1, 2).to(device),
+        specular=torch.tensor(specular, dtype=torch.float32, device=device),
+        roughness=torch.tensor(roughness, dtype=torch.float32, device=device),
+        probes=bank, probe_index=torch.tensor(probe_index, device=device),
+        rotation_deg=torch.tensor(rotation, dtype=torch.float32, device=device))
+    with torch.no_grad():
+        render(**inputs)  # warm-up: fills the probe bank's caches
+        seconds = []
+        for _ in range(repeats):
+            if device.startswith("cuda"):
+                torch.cuda.synchronize()
+            started = time.perf_counter()
+            images = render(**inputs)
+            if device.startswith("cuda"):
+                torch.cuda.synchronize()
+            seconds.append(time.perf_counter() - started)
+    torch_seconds = float(np.median(seconds))
+    result = dict(machine=platform.processor() or platform.machine(), device=device,
+                  torch_threads=torch.get_num_threads(), batch=batch, size=size,
+                  data="shared" if shared else "bundled",
+                  torch_seconds_per_batch=round(torch_seconds, 4),
+                  torch_images_per_second=round(batch / torch_seconds, 2))
+
+    if compare:
+        from render.scene import PlanarSampleRenderer
+
+        ours = images[:compare].permute(0, 2, 3, 1).cpu().numpy()
+        mitsuba = PlanarSampleRenderer(spp=reference_spp)
+        svbrdfs = [dataclasses.replace(materials[i], albedo=maps[k][0], normal=maps[k][1],
+                                       roughness=float(roughness[k]))
+                   for k, i in enumerate(chosen[:compare])]
+
+        def mitsuba_render(spp, seed_offset):
+            started = time.perf_counter()
+            out = [mitsuba.render(s, probes[probe_index[k]], rotation[k], seed=seed_offset + k,
+                                  spp=spp) for k, s in enumerate(svbrdfs)]
+            return out, (time.perf_counter() - started) / len(svbrdfs)
+
+        references, _ = mitsuba_render(reference_spp, 0)
+        torch_psnr = worst_psnr(ours, references)
+        spp, matched = 16, None
+        while spp < reference_spp:
+            renders, per_image = mitsuba_render(spp, 1000)
+            mitsuba_psnr = worst_psnr(renders, references)
+            matched = dict(spp=spp, worst_psnr_db=round(mitsuba_psnr, 2),
+                           seconds_per_image=round(per_image, 4))
+            if mitsuba_psnr >= torch_psnr:
+                break
+            spp *= 2
+        result.update(
+            compared_images=compare, reference_spp=reference_spp,
+            torch_worst_psnr_db=round(torch_psnr, 2), mitsuba_same_error=matched,
+            speedup_same_error=round(matched["seconds_per_image"] / (torch_seconds / batch), 1),
+            mitsuba_same_error_reached=matched["worst_psnr_db"] >= torch_psnr)
+    print(json.dumps(result, indent=2))
+
+
+if __name__ == "__main__":
+    main()
