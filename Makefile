@@ -17,6 +17,9 @@ demo: setup
 	$(BIN)/render-dataset --probes probes --svbrdfs scenes/materials --out $(DEMO_OUT)/dataset \
 		--resolution 128 --render-size 192 --rotations 2 --crops 2 --workers 2
 	@echo "Contact sheet: $(DEMO_OUT)/dataset/contact_sheet.png"
+	$(BIN)/check-renderer --probes probes --svbrdfs scenes/materials --size 64 \
+		--out $(DEMO_OUT)/check-renderer
+	@echo "Mitsuba | torch | 10x difference: $(DEMO_OUT)/check-renderer/*.png"
 
 test: setup
 	$(BIN)/python -m pytest -q

@@ -14,25 +14,30 @@ only through its albedo and its normal n:
     S(n) = integral over z > 0 of L_probe(w) ward(w, v, n) max(n.w, 0) dw,  rho_s = 1
 
 (both zero where the view is behind the normal, n.v <= 0). Per sample, D and S are tabulated
-over normal directions covering the sample's normals and looked up bilinearly per pixel.
+over normal directions covering the sample's normals and looked up bicubically per pixel.
 Normals are parameterized stereographically, p = (n_x, n_y) / (1 + n_z): the map is conformal,
 so a lobe stays round in p, and a table cell of size c spans an angle of at most 2 c.
 
 The probe is integrated as Mitsuba sees it, the bilinear interpolant of its samples: each
-sample carries the integral of its bilinear "tent" times sin(theta), cut at the horizon, and
-the lighting kernel is taken constant over the tent.
-- D: the probe's samples are gathered in blocks of BLOCK x BLOCK; a block's energy sits at its
-  luminance-weighted mean direction (a sun keeps its direction exactly). The table has
-  DIFFUSE_TABLE x DIFFUSE_TABLE entries over the sample's normal range.
-- S: every probe sample's energy is splatted bilinearly onto a lattice in half-vector space
-  (stereographic coordinates of h = normalize(w + v)); S at a table normal is the sum of the
-  lattice energies within STENCIL_SIGMAS lobe widths, each weighted by the exact Ward kernel at
-  its lattice half vector. The lattice and the table share one spacing, a fixed fraction of
-  the lobe width (CELLS_PER_SIGMA), so the cost per table entry does not depend on roughness;
-  only the table entries that some pixel's lookup touches are computed.
-Spacings are rounded to quarter octaves and table ranges snapped to the lattice, so the
-discretization does not move under small changes of the inputs and the output is smoothly
-differentiable in the maps, the specular albedo and the roughness (gradcheck-able in float64).
+sample (node) carries the integral of its bilinear "tent" times sin(theta), cut at the
+horizon; for sharp lobes the probe is first resampled finer (which leaves the interpolant
+unchanged) so that nodes stay a fraction of the lobe width apart (NODES_PER_SIGMA).
+- D: nodes are gathered in blocks about DIFFUSE_BLOCK_ANGLE wide, each at its energy's mean
+  direction (exact for a block the normal sees whole); DIFFUSE_TABLE^2 table entries.
+- S, sharp lobes (roughness < BROAD_ROUGHNESS): every node's energy is splatted bilinearly
+  onto a lattice in half-vector space (stereographic coordinates of h = normalize(w + v));
+  S at a table normal is the sum of the lattice energies within STENCIL_SIGMAS lobe widths,
+  weighted by the exact Ward kernel at the lattice half vectors. Lattice and table share one
+  spacing, a fixed fraction of the lobe width (CELLS_PER_SIGMA), so the cost per table entry
+  does not depend on roughness.
+- S, broad lobes: the exact kernel summed over probe blocks a fixed fraction of the lobe wide
+  (GLOSSY_BLOCK_ANGLE at BROAD_ROUGHNESS), on a finer table (BROAD_CELLS_PER_SIGMA), because
+  near-horizon light makes S change faster with n than the lobe width alone suggests.
+Only the table entries that some pixel's lookup touches are computed. Spacings are rounded to
+quarter octaves and table ranges snapped to the lattice, so the discretization does not move
+under small changes of the inputs: the output is differentiable in the maps, the specular
+albedo and the roughness (gradcheck-ed in float64). Measured accuracy and speed:
+docs/torch-renderer.md.
 """
 
 import math
@@ -54,7 +59,6 @@ STENCIL_SIGMAS = 3.0
 NODES_PER_SIGMA = 3.0
 MAX_REFINEMENT = 8
 BROAD_ROUGHNESS = 0.12
-LOOKUP = "bicubic"
 ENTRY_CHUNK_LANES = 1 << 20  # (table entries x stencil cells) evaluated at once
 
 
@@ -235,11 +239,12 @@ def _table_coordinates(p, step, origin):
 
 
 def _lookup(table, coordinates, sizes):
-    """Bilinear lookup of tables (B, 3, T, T) at coordinates (B, H, W, 2) in entries."""
+    """Bicubic lookup of tables (B, 3, T, T) at coordinates (B, H, W, 2) in entries; the
+    interpolant's small overshoots below zero are clamped."""
     scale = 2.0 / (sizes - 1)
     grid = coordinates * scale - 1
-    return torch.nn.functional.grid_sample(table, grid, mode=LOOKUP,
-                                           padding_mode="border", align_corners=True)
+    return torch.nn.functional.grid_sample(table, grid, mode="bicubic", padding_mode="border",
+                                           align_corners=True).clamp(min=0)
 
 
 def _diffuse_tables(probes, probe_index, rotation, layout, dtype):
@@ -349,7 +354,7 @@ def _broad_specular_tables(probes, probe_index, rotation, view, roughness, layou
 
 
 def _touched_entries(coordinates, layout):
-    """(sample, y, x) rows of the table entries that bilinear lookups at ``coordinates``
+    """(sample, y, x) rows of the table entries that bicubic lookups at ``coordinates``
     (B, H, W, 2) touch."""
     batch, table = coordinates.shape[0], layout.table
     limit = (layout.size - 2).to(coordinates.device)[:, None, None, :]
@@ -357,9 +362,8 @@ def _touched_entries(coordinates, layout):
     touched = torch.zeros(batch, table, table, dtype=torch.bool, device=coordinates.device)
     sample = torch.arange(batch, device=coordinates.device)[:, None, None].expand(
         corner.shape[:3])
-    reach = (0, 1) if LOOKUP == "bilinear" else (-1, 0, 1, 2)
-    for dx in reach:
-        for dy in reach:
+    for dx in (-1, 0, 1, 2):
+        for dy in (-1, 0, 1, 2):
             touched[sample, (corner[..., 1] + dy).clamp(0, table - 1),
                     (corner[..., 0] + dx).clamp(0, table - 1)] = True
     return touched.nonzero()
