@@ -47,8 +47,7 @@ def worst_psnr(images, references):
 @click.option("--shared", is_flag=True, help="Use ../shared/data instead of bundled data.")
 @click.option("--seed", default=0, show_default=True)
 def main(batch, size, repeats, device, compare, reference_spp, shared, seed):
-    data = SHARED if shared else REPO
-    probe_dir, material_dir = ((data / "probes", data / "svbrdfs") if shared
+    probe_dir, material_dir = ((SHARED / "probes", SHARED / "svbrdfs") if shared
                                else (REPO / "probes", REPO / "scenes" / "materials"))
     probes = [load_probe(p) for p in find_probes(probe_dir)]
     materials = [load_material(m) for m in find_materials(material_dir)]

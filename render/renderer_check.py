@@ -71,7 +71,7 @@ def square_crop(svbrdf, size):
     return svbrdf.albedo[window], svbrdf.normal[window]
 
 
-def render_torch(cases, materials, bank, maps, batch_size):
+def render_torch(cases, bank, maps, batch_size):
     """Torch renders of all cases, (N, H, W, 3) float32, in batches."""
     images = []
     for start in range(0, len(cases), batch_size):
@@ -100,7 +100,7 @@ def compare(probes_dir, svbrdfs_dir, size=64, spp=1024, roughness=DEFAULT_ROUGHN
     bank = ProbeBank([p.radiance for p in probes])
 
     started = time.perf_counter()
-    torch_images = render_torch(cases, materials, bank, maps, batch_size)
+    torch_images = render_torch(cases, bank, maps, batch_size)
     torch_seconds = time.perf_counter() - started
 
     mitsuba = PlanarSampleRenderer(spp=spp)

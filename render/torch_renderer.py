@@ -180,7 +180,8 @@ def ward_kernel(cos_h, cos_i, cos_o, alpha):
 
 class _Layout:
     """Per-sample discretization: lattice spacing, table origin and size (in lattice steps),
-    stencil radius (in steps, shared by the batch) and probe refinement factor."""
+    which lobe path (sharp or broad), probe block size (broad), stencil radius (in steps,
+    shared by the sharp samples of the batch) and probe refinement factor (sharp)."""
 
     def __init__(self, p_pixels, roughness, probe_height):
         with torch.no_grad():
