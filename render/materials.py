@@ -25,15 +25,18 @@ map means a flat surface, (0, 0, 1).
 
 import json
 import logging
+import os
+import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
 
+from render.atomic_files import write_json
 from render.color import srgb_to_linear
 from render.errors import InputError
-from render.images import IMAGE_SUFFIXES, is_hdr, read_image
+from render.images import IMAGE_SUFFIXES, is_hdr, read_image, write_exr
 from render.map_names import is_directx_normal, map_role
 
 log = logging.getLogger(__name__)
@@ -249,3 +252,32 @@ def resample(svbrdf, short_side):
     normal /= np.linalg.norm(normal, axis=2, keepdims=True)
     return ReducedSVBRDF(svbrdf.name, resize(svbrdf.albedo), normal, svbrdf.specular,
                          svbrdf.roughness, svbrdf.sources, svbrdf.material_class)
+
+
+def write_material(folder, svbrdf, metadata):
+    """Write ``svbrdf`` as a material folder that ``load_material`` reads back unchanged.
+
+    ``albedo.exr`` holds the linear diffuse albedo, ``normal.exr`` the normals encoded as
+    (n + 1) / 2 (OpenGL convention), and ``material.json`` the homogeneous ``specular_albedo``
+    and ``ward_roughness``, the class and ``metadata``. The folder is assembled under a
+    temporary name and renamed into place, so it exists complete or not at all; an existing
+    folder is never overwritten.
+    """
+    folder = Path(folder)
+    if folder.exists():
+        raise InputError(folder, "already exists; not overwritten")
+    tmp = folder.with_name(f".{folder.name}.tmp{os.getpid()}")
+    shutil.rmtree(tmp, ignore_errors=True)
+    try:
+        tmp.mkdir(parents=True)
+        write_exr(tmp / "albedo.exr", svbrdf.albedo)
+        write_exr(tmp / "normal.exr", (svbrdf.normal + 1.0) / 2.0)
+        write_json(tmp / "material.json", {
+            "albedo": "albedo.exr", "normal": "normal.exr", "albedo_color_space": "linear",
+            "normal_convention": "opengl",
+            "specular_albedo": [float(v) for v in svbrdf.specular],
+            "ward_roughness": float(svbrdf.roughness), "class": svbrdf.material_class,
+            "metadata": metadata})
+        os.replace(tmp, folder)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
