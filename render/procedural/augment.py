@@ -98,7 +98,9 @@ def augment(parameters, sources, size, name, material_class):
         tint = new_f0 / np.maximum(specular, 1e-3)
         albedo, specular = albedo * tint, new_f0
     albedo = np.clip(albedo, MIN_DIFFUSE_ALBEDO, 1.0).astype(np.float32)
-    used = [parameters["source"]] + [parameters["blend"]["source"]] * ("blend" in parameters)
+    used = [parameters["source"]]
+    if "blend" in parameters:
+        used.append(parameters["blend"]["source"])
     return ReducedSVBRDF(name, albedo, normal.astype(np.float32),
                          np.asarray(specular, np.float32), float(np.clip(alpha, *ALPHA_RANGE)),
                          {"augmented from": used}, material_class)
