@@ -14,8 +14,17 @@ $(VENV)/.installed: pyproject.toml scripts/install-system-deps.sh
 	touch $@
 
 demo: setup
-	$(BIN)/render-dataset --probes probes --svbrdfs scenes/materials --out $(DEMO_OUT)/dataset \
-		--resolution 128 --render-size 192 --rotations 2 --crops 2 --workers 2
+	for class in wood plastic metal; do \
+		$(BIN)/make-materials --class $$class --count 2 --resolution 256 \
+			--out $(DEMO_OUT)/materials --probe probes/park.exr --spp 64 \
+			|| exit 1; \
+	done
+	@echo "Contact sheets: $(DEMO_OUT)/materials/contact_sheet_*.png"
+	mkdir -p $(DEMO_OUT)/all-materials
+	cp -r scenes/materials/*/ $(DEMO_OUT)/materials/*/ $(DEMO_OUT)/all-materials/
+	$(BIN)/render-dataset --probes probes --svbrdfs $(DEMO_OUT)/all-materials \
+		--out $(DEMO_OUT)/dataset --resolution 128 --render-size 192 --rotations 2 --crops 2 \
+		--workers 2
 	@echo "Contact sheet: $(DEMO_OUT)/dataset/contact_sheet.png"
 	$(BIN)/check-renderer --probes probes --svbrdfs scenes/materials --size 64 \
 		--out $(DEMO_OUT)/check-renderer
