@@ -43,7 +43,7 @@ CLASS_COLORS = {"wood": "tab:brown", "plastic": "tab:blue", "metal": "tab:gray"}
 @click.option("--out", required=True, type=click.Path(), help="Folder of the figures.")
 @click.option("--probe", default="hilly_terrain_01", show_default=True,
               help="Shared probe (stem) of the contact sheet renders.")
-@click.option("--rows", default=6, show_default=True, help="Sets per contact sheet.")
+@click.option("--rows", default=8, show_default=True, help="Sets per contact sheet.")
 @click.option("--samples", default=200, show_default=True, help="Generated sets per class.")
 @click.option("--spp", default=256, show_default=True, help="Samples per pixel of the renders.")
 def main(shared, out, probe, rows, samples, spp):
