@@ -17,6 +17,7 @@ from render.errors import InputError
 from render.exposure import expose
 from render.material_sheet import write_material_sheet
 from render.materials import find_materials, load_material, resample, write_material
+from render.probes import load_probe
 from render.procedural.augment import material_class_of
 from render.procedural.material_set import GENERATORS, draw_metadata, regenerate, set_name
 
@@ -27,21 +28,25 @@ SHEET_RENDER_SIZE = 256
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.option("--class", "material_class", required=True, type=click.Choice(sorted(GENERATORS)),
               help="Material class to make.")
-@click.option("--count", default=8, show_default=True, help="Number of sets.")
+@click.option("--count", default=8, show_default=True, type=click.IntRange(min=1),
+              help="Number of sets.")
 @click.option("--out", required=True, type=click.Path(), help="Folder of material folders.")
 @click.option("--seed", default=0, show_default=True, help="Seed of all random choices.")
-@click.option("--resolution", default=512, show_default=True, help="Map size (px, square).")
+@click.option("--resolution", default=512, show_default=True, type=click.IntRange(min=8),
+              help="Map size (px, square).")
 @click.option("--augment", "augment_folder", type=click.Path(), default=None,
               help="Make sets from the real sets of the class in this folder instead.")
 @click.option("--probe", type=click.Path(), default=None,
               help="Also render the contact sheet's sets under this probe with Mitsuba.")
-@click.option("--spp", default=128, show_default=True, help="Samples per pixel of those renders.")
+@click.option("--spp", default=128, show_default=True, type=click.IntRange(min=1),
+              help="Samples per pixel of those renders.")
 def main(material_class, count, out, seed, resolution, augment_folder, probe, spp):
     """Write COUNT material sets of one class, and a contact sheet of the first few."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     out = Path(out)
     try:
         sources = None if augment_folder is None else _real_sets(augment_folder, material_class)
+        probe = None if probe is None else load_probe(probe)  # checked before any work
         start = time.perf_counter()
         written, kept, sheet_sets = 0, 0, []
         for index in tqdm(range(count), desc=f"{material_class} sets", unit="set"):
@@ -59,7 +64,8 @@ def main(material_class, count, out, seed, resolution, augment_folder, probe, sp
                 sheet_sets.append(svbrdf)
         seconds = time.perf_counter() - start
         sheet = out / f"contact_sheet_{material_class}.png"
-        write_material_sheet(sheet, sheet_sets, _renders(sheet_sets, probe, spp) if probe else None)
+        renders = None if probe is None else _renders(sheet_sets, probe, spp)
+        write_material_sheet(sheet, sheet_sets, renders)
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
     click.echo(json.dumps({"class": material_class, "written": written, "already_there": kept,
@@ -92,12 +98,10 @@ def _check_same(folder, metadata):
         raise InputError(folder, "exists but was made with other options; use another --out")
 
 
-def _renders(svbrdfs, probe_path, spp):
+def _renders(svbrdfs, probe, spp):
     """Each set under the probe, through the Mitsuba pipeline, exposed like a dataset sample."""
-    from render.probes import load_probe
-    from render.scene import PlanarSampleRenderer
+    from render.scene import PlanarSampleRenderer  # loads Mitsuba: only when rendering
 
-    probe = load_probe(probe_path)
     renderer = PlanarSampleRenderer(spp=spp)
     renders = []
     for svbrdf in tqdm(svbrdfs, desc="contact sheet renders", unit="render"):

@@ -1,8 +1,9 @@
 """A contact sheet of material sets for people to judge (PNG, sRGB).
 
 Each row is one set: its diffuse albedo (scaled to mean 0.5, as the network's relative albedo),
-its normal map (encoded (n + 1) / 2), a swatch of its specular albedo rho_s and, when given, a render under a probe (auto-exposed, clamped), labelled with the name,
-specular albedo and Ward roughness.
+its normal map (encoded (n + 1) / 2), a swatch of its specular albedo rho_s and, when given, a
+render under a probe (auto-exposed, clamped), labelled with the name, specular albedo and Ward
+roughness.
 """
 
 import numpy as np

@@ -1,6 +1,7 @@
 """The figures of docs/make-materials.md: a contact sheet per class and the parameter plot.
 
-    .venv/bin/python scripts/make_materials_figures.py --shared ../shared/data --out docs/make-materials
+    .venv/bin/python scripts/make_materials_figures.py --shared ../shared/data \
+        --out docs/make-materials
 
 Contact sheets: ``make-materials --class C --count ROWS --resolution 512 --probe PROBE``, each
 set rendered through the Mitsuba pipeline; the real sets of the shared data get a sheet too, so

@@ -227,6 +227,15 @@ def test_cli_augments_the_bundled_wood_and_refuses_a_class_without_sets(tmp_path
     assert refused.exit_code != 0 and "no metal set" in refused.output
 
 
+def test_bad_options_fail_before_anything_is_written(tmp_path):
+    not_a_probe = make(tmp_path / "out", "--class", "metal", "--probe",
+                       str(BUNDLED_PROBES / "CREDITS.md"))
+    assert not_a_probe.exit_code != 0 and "CREDITS.md" in not_a_probe.output
+    assert not (tmp_path / "out").exists()
+    assert make(tmp_path / "out", "--class", "metal", "--count", "0").exit_code != 0
+    assert make(tmp_path / "out", "--class", "stone").exit_code != 0
+
+
 @needs_shared
 def test_real_shared_sets_are_classified_by_name():
     classes = {path.name: material_class_of(load_material(path))
