@@ -192,6 +192,7 @@ def test_augmentation_blends_recolors_and_is_recorded():
         svbrdf = augment(parameters, sources, 24, "aug", "metal")
         assert svbrdf.albedo.shape == (24, 24, 3) and svbrdf.material_class == "metal"
         assert np.allclose(svbrdf.specular, measured(parameters["recolor"]["metal"]).specular)
+        assert svbrdf.albedo.max() < 0.2  # a dark film stays dark whatever the new metal
         assert np.array_equal(svbrdf.albedo, augment(parameters, sources, 24, "aug",
                                                      "metal").albedo)
         if "blend" in parameters:
@@ -199,6 +200,15 @@ def test_augmentation_blends_recolors_and_is_recorded():
             assert 0.1 - 1e-6 <= svbrdf.roughness <= 0.3 + 1e-6
             assert set(svbrdf.sources["augmented from"]) == set(sources)
     assert blended is not None
+
+
+def test_a_metal_set_reduced_as_a_dielectric_becomes_a_dark_film():
+    aluminium = synthetic_set("aluminium", (0.45, 0.45, 0.45), (0.04,) * 3, 0.25)
+    parameters = sample_augmentation(np.random.default_rng(0), "metal", ["aluminium"])
+    svbrdf = augment(parameters, {"aluminium": aluminium}, 24, "aug", "metal")
+    film = parameters["recolor"]["film"]
+    assert svbrdf.albedo.mean() < 0.45 * film * 1.6
+    assert svbrdf.specular.mean() > 0.3
 
 
 def test_augmentation_turns_normals_with_the_picture():

@@ -6,8 +6,10 @@ One augmented set is made from one real set of the class (two when blending):
    tile keeps a tileable source tileable; smaller crops are not tileable.
 2. ``quarter_turns``: counter-clockwise turns; the normals turn with the picture.
 3. ``recolor``: the diffuse albedo's Oklab lightness and chroma scaled and its hue turned, within
-   the class's range (CLASS_RECOLOR); metals also take the F0 of another measured metal, their
-   diffuse film tinted by the same ratio.
+   the class's range (CLASS_RECOLOR); metals also take the F0 of another measured metal, and
+   their diffuse film takes its hue (only the hue: a real "metal" set without a metalness map
+   was reduced as a dielectric, with rho_s 0.04, and its bright albedo becomes a dark film,
+   ``film`` (2 to 8%) times it, like the generated metals' film).
 4. ``blend``: a second set (cropped and turned the same way) shown through a tileable noise
    mask; normals are blended and renormalized, and the homogeneous specular albedo and
    roughness are the mask-weighted means (as docs/conventions.md reduces per-pixel values).
@@ -20,6 +22,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from render.color import luminance
 from render.crops import rotate_quarter_turns
 from render.map_names import tokens
 from render.materials import ALPHA_RANGE, MIN_DIFFUSE_ALBEDO, ReducedSVBRDF, resample
@@ -38,6 +41,10 @@ CLASS_RECOLOR = {"wood": {"lightness": (0.7, 1.3), "chroma": (0.6, 1.2), "hue_de
                  "plastic": {"lightness": (0.7, 1.3), "chroma": (0.5, 1.5), "hue_deg": 180.0},
                  "metal": {"lightness": (0.8, 1.2), "chroma": (0.8, 1.2), "hue_deg": 5.0}}
 """Ranges of the diffuse recoloring: woods stay brown, plastics may take any hue."""
+
+DIELECTRIC_LOOKING_F0 = 0.2
+"""A "metal" set whose rho_s luminance is below this had no metalness map: it was reduced as a
+dielectric, its base color is in its albedo, and it becomes a dark film of ``film`` times it."""
 
 
 def material_class_of(svbrdf):
@@ -65,6 +72,7 @@ def sample_augmentation(rng, material_class, source_names, blend_probability=0.3
     }
     if material_class == "metal":
         parameters["recolor"]["metal"] = str(rng.choice(SURFACE_METALS))
+        parameters["recolor"]["film"] = float(rng.uniform(0.02, 0.08))
     if len(source_names) > 1 and rng.random() < blend_probability:
         others = [name for name in source_names if name != parameters["source"]]
         parameters["blend"] = {"source": str(rng.choice(others)),
@@ -95,7 +103,9 @@ def augment(parameters, sources, size, name, material_class):
     albedo = vary_color(albedo, recolor["lightness"], recolor["chroma"], recolor["hue_deg"])
     if "metal" in recolor:
         new_f0 = np.asarray(measured(recolor["metal"]).specular)
-        tint = new_f0 / np.maximum(specular, 1e-3)
+        if luminance(specular) < DIELECTRIC_LOOKING_F0:  # the metal's color is in its albedo
+            albedo = albedo * recolor["film"]
+        tint = _chroma(new_f0) / _chroma(specular)  # the hue of the new metal, same brightness
         albedo, specular = albedo * tint, new_f0
     albedo = np.clip(albedo, MIN_DIFFUSE_ALBEDO, 1.0).astype(np.float32)
     used = [parameters["source"]]
@@ -104,6 +114,12 @@ def augment(parameters, sources, size, name, material_class):
     return ReducedSVBRDF(name, albedo, normal.astype(np.float32),
                          np.asarray(specular, np.float32), float(np.clip(alpha, *ALPHA_RANGE)),
                          {"augmented from": used}, material_class)
+
+
+def _chroma(rgb):
+    """``rgb`` divided by its luminance: its color without its brightness."""
+    rgb = np.maximum(np.asarray(rgb, np.float64), 1e-4)
+    return rgb / float(luminance(rgb))
 
 
 def _crop_and_turn(svbrdf, parameters, size):

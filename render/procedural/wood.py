@@ -122,7 +122,7 @@ def generate(parameters, size):
                                       angle_deg=grain_angle))
     if p["pores_in_earlywood"]:
         pores = pores * (1.0 - latewood)
-    tone = np.array([b_["tone"] for b_ in p["boards"]])[board]
+    tone = np.array([board_parameters["tone"] for board_parameters in p["boards"]])[board]
     albedo = albedo * (tone * (1.0 + p["fibre_contrast"] * fibre) * (1.0 - 0.5 * pores))[..., None]
     albedo = _hue_per_board(albedo, board, p["boards"])
     albedo = albedo * (1.0 - 0.45 * knot_core)[..., None] * (1.0 - 0.6 * seam)[..., None]
