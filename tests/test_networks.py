@@ -1,0 +1,80 @@
+"""SVBRDF-net: shapes, ranges, skip links, configuration checks, and the paper's optimizer."""
+
+import pytest
+import torch
+
+from train.networks import SMALL_CPU_CONFIG, MapNet, NetworkConfig, SVBRDFNet, decode_normal
+from train.optimization import OptimizerConfig, inverse_decay, make_optimizer
+
+TINY = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32)
+
+
+def test_outputs_have_the_label_shapes_and_ranges():
+    torch.manual_seed(0)
+    net = SVBRDFNet(TINY)
+    output = net(torch.rand(2, 3, 32, 32))
+    assert output["albedo"].shape == output["normal"].shape == (2, 3, 32, 32)
+    assert output["log_specular"].shape == (2, 3) and output["log_roughness"].shape == (2, 1)
+    assert 0 <= output["albedo"].min() and output["albedo"].max() <= 1
+    assert torch.allclose(output["normal"].norm(dim=1), torch.ones(2, 32, 32), atol=1e-5)
+    assert output["normal"][:, 2].min() > 0
+
+
+def test_every_parameter_gets_a_gradient():
+    torch.manual_seed(0)
+    net = SVBRDFNet(TINY)
+    output = net(torch.rand(2, 3, 32, 32))
+    loss = sum(value.square().mean() for value in output.values())
+    loss.backward()
+    for name, parameter in net.named_parameters():
+        assert parameter.grad is not None and parameter.grad.abs().sum() > 0, name
+
+
+def test_skip_links_carry_fine_detail_to_the_output():
+    """A one-pixel change of the input changes the map output at that pixel more than far
+    away: the full-resolution skip link reaches the output."""
+    torch.manual_seed(0)
+    net = MapNet(TINY).eval()
+    image = torch.rand(1, 3, 32, 32)
+    changed = image.clone()
+    changed[0, :, 16, 16] = 1 - changed[0, :, 16, 16]
+    difference = (net(changed) - net(image)).abs().sum(1)[0]
+    assert difference[16, 16] > 10 * difference[0, 0]
+
+
+def test_separate_networks_per_output_type():
+    net = SVBRDFNet(TINY)
+    albedo_weights = {id(p) for p in net.albedo.parameters()}
+    assert not albedo_weights & {id(p) for p in net.normal.parameters()}
+    assert not albedo_weights & {id(p) for p in net.homogeneous.parameters()}
+
+
+def test_configuration_checks():
+    with pytest.raises(ValueError, match="divisible"):
+        NetworkConfig(input_size=100, levels=3)
+    with pytest.raises(ValueError, match="expected photos"):
+        SVBRDFNet(TINY)(torch.rand(1, 3, 64, 64))
+    assert NetworkConfig().channels() == [32, 64, 128, 256, 256]
+    small = sum(p.numel() for p in SVBRDFNet(SMALL_CPU_CONFIG).parameters())
+    assert small < 2_000_000  # trains on a CPU in minutes
+
+
+def test_decode_normal():
+    encoded = torch.tensor([0.5, 0.5, 1.0]).view(1, 3, 1, 1)
+    assert torch.allclose(decode_normal(encoded).flatten(), torch.tensor([0.0, 0.0, 1.0]))
+    grazing = decode_normal(torch.tensor([1.0, 0.5, 0.5]).view(1, 3, 1, 1)).flatten()
+    assert grazing[2] > 0 and torch.isclose(grazing.norm(), torch.tensor(1.0))
+
+
+def test_inverse_learning_rate_policy_and_adam_settings():
+    config = OptimizerConfig()
+    parameter = torch.nn.Parameter(torch.zeros(3))
+    optimizer, scheduler = make_optimizer([parameter], config)
+    group = optimizer.param_groups[0]
+    assert group["betas"] == (0.9, 0.999) and group["weight_decay"] == 1e-4
+    for _ in range(5000):
+        optimizer.step()
+        scheduler.step()
+    expected = 0.002 * (1 + 1e-4 * 5000) ** -1.0  # Caffe's "inv": base (1 + gamma it)^-power
+    assert abs(group["lr"] - expected) < 1e-12
+    assert inverse_decay(0, config) == 1.0

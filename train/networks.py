@@ -1,0 +1,142 @@
+"""SVBRDF-net (the paper's section "SVBRDF-Net"): one analysis-synthesis network per output type.
+
+All three networks share the structure of their analysis sub-network: ``levels`` blocks of
+3x3 convolution, batch norm and ReLU, each followed by 2x2 max pooling; the first block has
+``width`` channels and each next one twice as many, up to ``max_width``. Then:
+
+- ``HomogeneousNet``: a fully connected synthesis with ``hidden`` (1024) hidden units that
+  predicts the log relative specular albedo (3 values) and the log Ward roughness (1 value).
+  (The paper predicts a roughness per color channel; the reduced model and the labels here
+  have one.)
+- ``MapNet``: a U-Net style synthesis that mirrors the analysis, each block a 3x3 convolution,
+  batch norm and ReLU, then bilinear upsampling and concatenation of the analysis features of
+  the same size (skip links); a last 3x3 convolution, without batch norm, and a sigmoid give a
+  (B, 3, H, W) map in [0, 1]. One MapNet predicts the relative diffuse albedo, another the
+  normals encoded (n + 1) / 2.
+
+Input: (B, 3, S, S) photos, linear RGB in [0, 1] (docs/conventions.md), S divisible by
+2^levels. Outputs follow the label conventions of docs/dataset-format.md.
+"""
+
+from dataclasses import dataclass
+
+import torch
+from torch import nn
+from torch.nn import functional
+
+
+@dataclass(frozen=True)
+class NetworkConfig:
+    input_size: int = 256
+    """Side of the square input photo (px); divisible by 2^levels."""
+    width: int = 32
+    """Channels of the first analysis block; each next block doubles them."""
+    max_width: int = 256
+    """Most channels of a block."""
+    levels: int = 5
+    """Analysis blocks (and poolings): 256 px in, an 8 x 8 bottleneck out."""
+    hidden: int = 1024
+    """Hidden units of the homogeneous network's fully connected synthesis."""
+
+    def __post_init__(self):
+        if self.input_size % 2 ** self.levels:
+            raise ValueError(f"input_size {self.input_size} is not divisible by 2^levels "
+                             f"({2 ** self.levels})")
+
+    def channels(self):
+        """Channels of each analysis block, from the input side."""
+        return [min(self.width * 2 ** level, self.max_width) for level in range(self.levels)]
+
+
+SMALL_CPU_CONFIG = NetworkConfig(input_size=64, width=8, max_width=64, levels=4, hidden=256)
+"""A configuration that trains in minutes on a CPU (demo, tests)."""
+
+
+def _block(in_channels, out_channels):
+    """3x3 convolution, batch norm, ReLU; the convolution's bias is redundant with the norm's."""
+    return nn.Sequential(nn.Conv2d(in_channels, out_channels, 3, padding=1, bias=False),
+                         nn.BatchNorm2d(out_channels), nn.ReLU(inplace=True))
+
+
+class Analysis(nn.Module):
+    """The shared structure: blocks each followed by 2x2 max pooling."""
+
+    def __init__(self, config):
+        super().__init__()
+        channels = [3] + config.channels()
+        self.blocks = nn.ModuleList(_block(a, b) for a, b in zip(channels, channels[1:]))
+
+    def forward(self, image):
+        """Features before each pooling (for skip links), and the pooled bottleneck."""
+        features = []
+        x = image  # (B, 3, S, S)
+        for block in self.blocks:
+            x = block(x)
+            features.append(x)  # (B, C_l, S / 2^l, S / 2^l)
+            x = functional.max_pool2d(x, 2)
+        return features, x  # bottleneck (B, C_last, S / 2^levels, S / 2^levels)
+
+
+class HomogeneousNet(nn.Module):
+    """Photo -> (log relative specular albedo (B, 3), log roughness (B, 1))."""
+
+    def __init__(self, config):
+        super().__init__()
+        self.analysis = Analysis(config)
+        bottleneck = config.channels()[-1] * (config.input_size // 2 ** config.levels) ** 2
+        self.synthesis = nn.Sequential(nn.Flatten(), nn.Linear(bottleneck, config.hidden),
+                                       nn.ReLU(inplace=True), nn.Linear(config.hidden, 4))
+
+    def forward(self, image):
+        _, bottleneck = self.analysis(image)
+        output = self.synthesis(bottleneck)  # (B, 4)
+        return output[:, :3], output[:, 3:]
+
+
+class MapNet(nn.Module):
+    """Photo -> a (B, 3, S, S) map in [0, 1], through a U-Net style synthesis."""
+
+    def __init__(self, config):
+        super().__init__()
+        self.analysis = Analysis(config)
+        channels = config.channels()
+        inputs = [channels[-1]] + [2 * c for c in reversed(channels[1:])]
+        self.synthesis = nn.ModuleList(_block(a, b) for a, b in zip(inputs, reversed(channels)))
+        self.output = nn.Conv2d(2 * channels[0], 3, 3, padding=1)
+
+    def forward(self, image):
+        features, x = self.analysis(image)
+        for block, skip in zip(self.synthesis, reversed(features)):
+            x = functional.interpolate(block(x), scale_factor=2, mode="bilinear",
+                                       align_corners=False)
+            x = torch.cat([x, skip], 1)  # (B, 2 C_l, S / 2^l, S / 2^l)
+        return torch.sigmoid(self.output(x))
+
+
+class SVBRDFNet(nn.Module):
+    """The union of the three networks; ``forward`` returns the label quantities."""
+
+    def __init__(self, config=NetworkConfig()):
+        super().__init__()
+        self.config = config
+        self.homogeneous = HomogeneousNet(config)
+        self.albedo = MapNet(config)
+        self.normal = MapNet(config)
+
+    def forward(self, image):
+        """``image`` (B, 3, S, S) -> dict of albedo (B, 3, S, S) relative diffuse albedo in
+        [0, 1]; normal (B, 3, S, S) unit tangent-space normals; log_specular (B, 3);
+        log_roughness (B, 1)."""
+        if image.shape[1:] != (3, self.config.input_size, self.config.input_size):
+            raise ValueError(f"expected photos of shape (B, 3, {self.config.input_size}, "
+                             f"{self.config.input_size}), got {tuple(image.shape)}")
+        log_specular, log_roughness = self.homogeneous(image)
+        return {"albedo": self.albedo(image), "normal": decode_normal(self.normal(image)),
+                "log_specular": log_specular, "log_roughness": log_roughness}
+
+
+def decode_normal(encoded):
+    """(B, 3, H, W) normals encoded (n + 1) / 2 in [0, 1] -> unit vectors with z >= 0.05."""
+    normal = encoded * 2.0 - 1.0
+    normal = torch.cat([normal[:, :2], normal[:, 2:].clamp(min=0.05)], 1)
+    return functional.normalize(normal, dim=1)
