@@ -1,0 +1,61 @@
+"""Photos as network input: reading, linearizing, cropping and resizing.
+
+The rule (the same for unlabeled training photos and for ``sa-estimate``):
+1. Read the file (render.images.read_image: PNG, JPEG, TIFF, BMP, EXR, HDR). Grayscale photos
+   are repeated to RGB.
+2. Linearize. 8- and 16-bit files are taken as gamma-encoded and decoded with gamma 2.2, as the
+   paper does for photos that are not radiometrically linear. EXR and HDR files are linear
+   radiance of any scale: they are auto-exposed like the rendered training images
+   (mean Rec. 709 luminance 0.18, render.exposure).
+3. Crop the centred square of the shorter side, and resize it to ``size`` x ``size`` (box
+   filter when shrinking, bilinear when enlarging).
+4. Clamp to [0, 1].
+The result is (3, size, size) float32 linear RGB, the layout of the network input.
+"""
+
+import numpy as np
+from PIL import Image
+
+from render.errors import InputError
+from render.exposure import expose
+from render.images import is_hdr, read_image
+
+PHOTO_GAMMA = 2.2
+MIN_PHOTO_SIDE = 16
+
+
+def read_photo(path, size):
+    """(3, size, size) float32 linear RGB in [0, 1], by the rule in the module docstring."""
+    pixels = read_image(path)
+    if min(pixels.shape[:2]) < MIN_PHOTO_SIDE:
+        raise InputError(path, f"photo is {pixels.shape[1]}x{pixels.shape[0]} pixels; at least "
+                               f"{MIN_PHOTO_SIDE}x{MIN_PHOTO_SIDE} is needed")
+    if pixels.shape[2] == 1:
+        pixels = np.repeat(pixels, 3, axis=2)
+    if not np.isfinite(pixels).all():
+        raise InputError(path, "photo has NaN or infinite pixels")
+    if is_hdr(path):
+        try:
+            pixels, _ = expose(np.maximum(pixels, 0.0))
+        except ValueError as error:
+            raise InputError(path, str(error)) from None
+    else:
+        pixels = pixels ** PHOTO_GAMMA
+    square = centre_square(pixels)
+    return np.ascontiguousarray(np.clip(resize(square, size), 0, 1).transpose(2, 0, 1))
+
+
+def centre_square(pixels):
+    """The centred square of the shorter side of (H, W, C) pixels."""
+    height, width = pixels.shape[:2]
+    side = min(height, width)
+    top, left = (height - side) // 2, (width - side) // 2
+    return pixels[top:top + side, left:left + side]
+
+
+def resize(pixels, size):
+    """(S, S, C) float pixels to (size, size, C): box filter down, bilinear up."""
+    method = Image.Resampling.BOX if pixels.shape[0] > size else Image.Resampling.BILINEAR
+    return np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(pixels[..., c], np.float32))
+                                .resize((size, size), method))
+                     for c in range(pixels.shape[2])], -1)
