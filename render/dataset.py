@@ -34,6 +34,7 @@ from render.exposure import DEFAULT_KEY, expose
 from render.materials import find_materials, load_material, resample
 from render.probes import find_probes, load_probe
 from render.scene import DEFAULT_SAMPLER
+from render.views import random_view
 
 log = logging.getLogger(__name__)
 CONTACT_SHEET_ROWS = 12
@@ -130,15 +131,6 @@ def task_rng(cfg, task):
     key = [cfg.seed, zlib.crc32(task.material.name.encode()), zlib.crc32(task.probe.stem.encode()),
            task.rotation]
     return np.random.default_rng(key)
-
-
-def random_view(rng, max_angle_deg):
-    """Unit view direction, uniform in solid angle within ``max_angle_deg`` of +z."""
-    cos_max = np.cos(np.radians(max_angle_deg))
-    cos_t = 1 - rng.random() * (1 - cos_max)
-    phi = 2 * np.pi * rng.random()
-    sin_t = np.sqrt(max(0.0, 1 - cos_t * cos_t))
-    return np.array([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t])
 
 
 class TaskRenderer:

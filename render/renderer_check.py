@@ -22,13 +22,13 @@ import torch
 from tqdm import tqdm
 
 from render.atomic_files import write_json
-from render.dataset import random_view
 from render.errors import InputError
 from render.exposure import expose as expose_numpy
 from render.images import write_png
 from render.materials import find_materials, load_material, resample
 from render.probes import find_probes, load_probe
 from render.torch_renderer import ProbeBank, render
+from render.views import random_view
 
 DEFAULT_ROUGHNESS = (0.02, 0.05, 0.1, 0.2, 0.5, 1.0)
 

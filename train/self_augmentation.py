@@ -1,0 +1,42 @@
+"""Self-augmentation (the paper's "Training by Self-Augmentation"): a labeled pair made from an
+unlabeled photo by the network itself and the exact renderer.
+
+The network, in evaluation mode, predicts provisional parameters for the photos; they are
+clamped to the valid range and rendered by the torch renderer under a random probe, rotation
+and view, auto-exposed and clamped like the dataset's images. The render and the provisional
+parameters, renormalized to a mean relative albedo of 0.5 (the exposure makes the render
+independent of that scale), form a labeled minibatch. Unlike the photo, the render is exactly
+consistent with those parameters, so training on it pulls the network toward the renderer's
+inverse.
+"""
+
+import numpy as np
+import torch
+
+from render.torch_renderer import expose, render
+from render.views import random_view
+from train.losses import clamp_to_valid
+
+
+def self_augmented_batch(net, photos, probes, rng, log_specular_range, max_view_angle=0.0):
+    """A labeled minibatch (image, albedo, normal, log_specular, log_roughness) from ``photos``
+    (B, 3, S, S); ``rng`` (numpy Generator) draws the probes, rotations and views."""
+    training = net.training
+    net.eval()
+    with torch.no_grad():
+        provisional = clamp_to_valid(net(photos), log_specular_range)
+    net.train(training)
+
+    batch, dtype = photos.shape[0], photos.dtype
+    probe_index = torch.as_tensor(rng.integers(len(probes), size=batch))
+    rotation = torch.as_tensor(rng.uniform(0.0, 360.0, size=batch), dtype=dtype)
+    view = torch.as_tensor(np.stack([random_view(rng, max_view_angle) for _ in range(batch)]),
+                           dtype=dtype)
+    albedo = provisional["albedo"]
+    hdr = render(albedo, provisional["normal"], torch.exp(provisional["log_specular"]),
+                 torch.exp(provisional["log_roughness"]), probes, probe_index, rotation, view)
+    scale = 2.0 * albedo.mean((1, 2, 3))  # (B,) relative albedo back to mean 0.5
+    return {"image": expose(hdr).to(dtype), "albedo": albedo / scale[:, None, None, None],
+            "normal": provisional["normal"],
+            "log_specular": provisional["log_specular"] - torch.log(scale)[:, None],
+            "log_roughness": provisional["log_roughness"]}
