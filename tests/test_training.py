@@ -1,0 +1,118 @@
+"""sa-train end to end on tiny data: outputs, exact resume, bad input; the schedule and the
+self-augmented minibatch."""
+
+import json
+import numpy as np
+import pytest
+import torch
+from click.testing import CliRunner
+
+from render.cli import main as render_dataset
+from render.probes import find_probes, load_probe
+from render.torch_renderer import ProbeBank
+from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES
+from train.checkpoints import checkpoint_files, load_checkpoint
+from train.cli import main as sa_train
+from train.networks import NetworkConfig, SVBRDFNet
+from train.schedule import LABELED, SELF_AUGMENTED, Schedule
+from train.self_augmentation import self_augmented_batch
+
+TINY_NETWORK = ["--network", "small", "--input-size", "32", "--levels", "3"]
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory):
+    out = tmp_path_factory.mktemp("training") / "ds"
+    result = CliRunner().invoke(render_dataset, [
+        "--probes", str(BUNDLED_PROBES), "--svbrdfs", str(BUNDLED_MATERIALS), "--out", str(out),
+        "--resolution", "32", "--render-size", "48", "--rotations", "2", "--crops", "4",
+        "--spp", "16", "--test-materials", "0.34", "--test-probes", "0.34"])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def train(dataset, out, *options):
+    return CliRunner().invoke(sa_train, ["--dataset", str(dataset), "--out", str(out),
+                                         "--probes", str(BUNDLED_PROBES), *TINY_NETWORK,
+                                         "--batch-size", "8", *options])
+
+
+def test_self_augmented_training_end_to_end(dataset, tmp_path):
+    result = train(dataset, tmp_path / "run", "--unlabeled", str(dataset), "--labeled-epochs",
+                   "1", "--self-augmented-epochs", "2", "--log-every", "2")
+    assert result.exit_code == 0, result.output
+    run = tmp_path / "run"
+    history = json.loads((run / "history.json").read_text())
+    assert [record["epoch"] for record in history["test"]] == [0, 1, 2]
+    assert any(SELF_AUGMENTED in record for record in history["train"])
+    for record in history["test"]:
+        assert all(np.isfinite(value) for value in record.values())
+        assert 0 <= record["normal_angle_deg"] <= 180
+    for name in ("config.json", "examples.png", "loss_curves.png"):
+        assert (run / name).is_file(), name
+    assert list((run / "tensorboard").glob("events.out.tfevents.*"))
+    newest = load_checkpoint(checkpoint_files(run / "checkpoints")[-1])
+    assert newest["step"] == 4 + 2 * 8  # 4 labeled steps per epoch; 4 + 4 per SA epoch
+
+
+def test_resuming_gives_the_weights_of_an_uninterrupted_run(dataset, tmp_path):
+    options = ["--unlabeled", str(dataset), "--labeled-epochs", "1", "--self-augmented-epochs",
+               "1", "--checkpoint-every", "3"]
+    assert train(dataset, tmp_path / "straight", *options).exit_code == 0
+    interrupted = tmp_path / "interrupted"
+    assert train(dataset, interrupted, *options).exit_code == 0
+    kept = checkpoint_files(interrupted / "checkpoints")
+    assert [load_checkpoint(p)["step"] for p in kept] == [6, 9, 12]
+    for path in kept[1:]:  # as if killed just after the checkpoint of step 6
+        path.unlink()
+    inode = kept[0].stat().st_ino
+    assert train(dataset, interrupted, *options).exit_code == 0
+    assert kept[0].stat().st_ino == inode  # resumed from it: a restart would have rewritten it
+    straight = load_checkpoint(checkpoint_files(tmp_path / "straight" / "checkpoints")[-1])
+    again = load_checkpoint(checkpoint_files(interrupted / "checkpoints")[-1])
+    assert again["step"] == straight["step"] == 12
+    for name, tensor in straight["model"].items():
+        assert torch.equal(tensor, again["model"][name]), name
+
+
+def test_bad_input_gets_clear_errors(dataset, tmp_path):
+    (tmp_path / "empty").mkdir()
+    empty = train(dataset, tmp_path / "a", "--unlabeled", str(tmp_path / "empty"))
+    assert empty.exit_code != 0 and "no unlabeled images" in empty.output
+    wrong_size = CliRunner().invoke(sa_train, ["--dataset", str(dataset), "--out",
+                                               str(tmp_path / "b"), "--probes",
+                                               str(BUNDLED_PROBES), "--network", "small"])
+    assert wrong_size.exit_code != 0 and "samples are 32x32" in wrong_size.output
+    assert train(dataset, tmp_path / "c", "--labeled-epochs", "1", "--self-augmented-epochs",
+                 "0").exit_code == 0
+    other = train(dataset, tmp_path / "c", "--labeled-epochs", "2", "--self-augmented-epochs",
+                  "0")
+    assert other.exit_code != 0 and "another configuration" in other.output
+
+
+def test_baseline_and_self_augmentation_share_the_labeled_schedule():
+    augmented = Schedule(steps_per_epoch=3, labeled_epochs=2, self_augmented_epochs=2,
+                         unlabeled_per_labeled=2)
+    baseline = Schedule(3, 2, 2, 0)
+    assert augmented.total_steps == 3 * 2 + 3 * 2 * 3 and baseline.total_steps == 12
+    labeled = [s for s in map(augmented.step, range(augmented.total_steps)) if s.kind == LABELED]
+    assert labeled == [baseline.step(i) for i in range(baseline.total_steps)]
+    assert [augmented.step(i).kind for i in range(6, 12)] == [SELF_AUGMENTED] * 2 + [LABELED] \
+        + [SELF_AUGMENTED] * 2 + [LABELED]
+    ends = [i for i in range(augmented.total_steps) if augmented.ends_epoch(i)]
+    assert ends == [2, 5, 14, 23]
+
+
+def test_self_augmented_minibatch_is_a_valid_labeled_pair():
+    torch.manual_seed(0)
+    net = SVBRDFNet(NetworkConfig(input_size=16, width=4, max_width=8, levels=2, hidden=16))
+    probes = ProbeBank([load_probe(p).radiance for p in find_probes(BUNDLED_PROBES)])
+    batch = self_augmented_batch(net, torch.rand(3, 3, 16, 16), probes,
+                                 np.random.default_rng(0), (-3.0, 0.0), max_view_angle=20.0)
+    assert batch["image"].shape == (3, 3, 16, 16)
+    assert 0 <= batch["image"].min() and batch["image"].max() <= 1
+    assert torch.allclose(batch["albedo"].mean((1, 2, 3)), torch.full((3,), 0.5), atol=1e-5)
+    assert torch.allclose(batch["normal"].norm(dim=1), torch.ones(3, 16, 16), atol=1e-5)
+    assert (batch["log_roughness"] >= np.log(0.02) - 1e-6).all()
+    assert (batch["log_roughness"] <= 1e-6).all()
+    assert net.training  # the mode is restored

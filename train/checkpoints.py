@@ -1,0 +1,63 @@
+"""Checkpoints: everything needed to resume a run exactly, or to estimate from photos.
+
+A checkpoint (``checkpoints/step-000001000.pt``, torch.save of a dict) holds ``format``,
+``config`` (the run's TrainConfig as a dict, the network configuration within it), ``model``,
+``optimizer`` and ``scheduler`` state dicts, ``step`` (optimizer steps done), ``torch_rng``
+and ``history`` (logged losses and evaluations). The other random choices are drawn from
+generators seeded by (seed, step), so they need no state. Files are written under a temporary
+name and renamed: a killed run loses at most the steps since its last checkpoint.
+"""
+
+import re
+from pathlib import Path
+
+import torch
+
+from render.atomic_files import atomic_path
+from render.errors import InputError
+
+FORMAT = "sa-svbrdf checkpoint 1"
+KEEP = 3
+NAME = re.compile(r"^step-(\d{9})\.pt$")
+
+
+def save_checkpoint(folder, state):
+    """Write ``state`` as ``step-<step>.pt`` in ``folder``; keep the newest KEEP files."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    with atomic_path(folder / f"step-{state['step']:09d}.pt") as tmp:
+        torch.save({"format": FORMAT, **state}, tmp)
+    for old in checkpoint_files(folder)[:-KEEP]:
+        old.unlink()
+
+
+def checkpoint_files(folder):
+    """Checkpoint files of ``folder``, oldest first."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return []
+    return sorted(p for p in folder.iterdir() if NAME.match(p.name))
+
+
+def load_checkpoint(path):
+    """The state dict of a checkpoint file, checked to be one of ours."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "checkpoint not found")
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=False)
+    except Exception as error:  # torch raises many types for a corrupt or foreign file
+        raise InputError(path, f"cannot read checkpoint ({type(error).__name__})") from None
+    if not isinstance(state, dict) or state.get("format") != FORMAT:
+        raise InputError(path, f"not an sa-svbrdf checkpoint (expected format '{FORMAT}')")
+    return state
+
+
+def load_weights(net, state, path):
+    """Load the model weights of ``state`` into ``net``, with a clear error on a mismatch."""
+    try:
+        net.load_state_dict(state["model"])
+    except RuntimeError as error:
+        first = str(error).strip().splitlines()[0]
+        raise InputError(path, f"weights do not fit this network architecture ({first})") \
+            from None

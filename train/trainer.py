@@ -1,0 +1,285 @@
+"""The training loop of ``sa-train``: SVBRDF-net with or without self-augmentation.
+
+``run(cfg)`` trains on a ``render-dataset`` output, following train.schedule: labeled epochs,
+then epochs that interleave self-augmented minibatches (train.self_augmentation) with labeled
+ones; without ``unlabeled`` data the same schedule runs on labeled minibatches alone (the
+baseline). Into ``out`` it writes:
+
+    config.json            the resolved configuration (a run with another one is refused)
+    checkpoints/           step-000001000.pt ... (train.checkpoints); a run resumes from the
+                           newest and continues exactly as if it had not stopped
+    tensorboard/           scalars (losses, learning rate, test errors) and example images
+    history.json           every logged loss and every evaluation, also in the checkpoints
+    loss_curves.png        training losses and test errors over the steps
+    examples.png           the newest evaluation's examples (input, albedo, normals)
+
+It logs a line every ``log_every`` steps (losses, ms per step, time left) and evaluates on the
+test split (train.evaluation) at the end of every epoch.
+"""
+
+import dataclasses
+import json
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+from PIL import Image  # noqa: E402
+from torch.utils.tensorboard import SummaryWriter  # noqa: E402
+
+from render.atomic_files import atomic_path, write_json  # noqa: E402
+from render.errors import InputError  # noqa: E402
+from render.probes import find_probes, load_probe  # noqa: E402
+from render.torch_renderer import ProbeBank  # noqa: E402
+from train.checkpoints import checkpoint_files, load_checkpoint, save_checkpoint  # noqa: E402
+from train.evaluation import evaluate, stack_items  # noqa: E402
+from train.labeled_dataset import LabeledDataset  # noqa: E402
+from train.losses import losses  # noqa: E402
+from train.networks import NetworkConfig, SVBRDFNet  # noqa: E402
+from train.optimization import OptimizerConfig, make_optimizer  # noqa: E402
+from train.schedule import SELF_AUGMENTED, Schedule, labeled_batch_indices  # noqa: E402
+from train.self_augmentation import self_augmented_batch  # noqa: E402
+from train.unlabeled_data import UnlabeledImages  # noqa: E402
+from train.unlabeled_selection import select_matching  # noqa: E402
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    dataset: str
+    """A render-dataset output folder (its train split trains, its test split evaluates)."""
+    out: str
+    """Run folder (see the module docstring)."""
+    probes: str
+    """Folder of HDR probes for the self-augmentation renders and the relit evaluation."""
+    unlabeled: str | None = None
+    """Folder of unlabeled photos, or a dataset folder whose labels are ignored; None: baseline."""
+    network: NetworkConfig = field(default_factory=NetworkConfig)
+    optimizer: OptimizerConfig = field(default_factory=OptimizerConfig)
+    batch_size: int = 16
+    labeled_epochs: int = 10
+    """Epochs of labeled minibatches only (the paper: 10)."""
+    self_augmented_epochs: int = 10
+    """Epochs interleaving self-augmented and labeled minibatches (the paper: 10)."""
+    unlabeled_per_labeled: int = 1
+    """Self-augmented minibatches before each labeled one in those epochs."""
+    unlabeled_limit: int | None = None
+    """Most unlabeled images in the color-matched subset."""
+    max_view_angle: float = 0.0
+    """Largest view tilt (degrees) of the self-augmentation renders."""
+    seed: int = 0
+    checkpoint_every: int = 500
+    """Optimizer steps between checkpoints (one is also written at every epoch's end)."""
+    log_every: int = 50
+    device: str = "cpu"
+
+
+def config_from_dict(values):
+    """A TrainConfig from its ``dataclasses.asdict`` form (as stored in checkpoints)."""
+    values = dict(values)
+    values["network"] = NetworkConfig(**values["network"])
+    values["optimizer"] = OptimizerConfig(**values["optimizer"])
+    return TrainConfig(**values)
+
+
+class Run:
+    """The state of one training run: data, network, optimizer, history."""
+
+    def __init__(self, cfg):
+        self.cfg = cfg
+        self.out = Path(cfg.out)
+        self.device = torch.device(cfg.device)
+        self.train_set = LabeledDataset(cfg.dataset, "train")
+        self.test_set = LabeledDataset(cfg.dataset, "test")
+        if len(self.train_set) < cfg.batch_size:
+            raise InputError(cfg.dataset, f"{len(self.train_set)} training samples, fewer than "
+                                          f"one minibatch of {cfg.batch_size}")
+        size = self.train_set[0]["image"].shape[-1]
+        if size != cfg.network.input_size:
+            raise InputError(cfg.dataset, f"samples are {size}x{size}; the network takes "
+                                          f"{cfg.network.input_size}x{cfg.network.input_size}")
+        probe_files = find_probes(cfg.probes)
+        self.probe_names = [path.stem for path in probe_files]
+        self.probes = ProbeBank([load_probe(path).radiance for path in probe_files],
+                                device=self.device)
+        self.unlabeled, self.unlabeled_indices = self._unlabeled()
+        self.schedule = Schedule(len(self.train_set) // cfg.batch_size, cfg.labeled_epochs,
+                                 cfg.self_augmented_epochs,
+                                 cfg.unlabeled_per_labeled if self.unlabeled else 0)
+        log_specular = np.stack([self.train_set[i]["log_specular"]
+                                 for i in range(len(self.train_set))])
+        self.log_specular_range = (float(log_specular.min()), float(log_specular.max()))
+
+        torch.manual_seed(cfg.seed)
+        self.net = SVBRDFNet(cfg.network).to(self.device)
+        self.optimizer, self.scheduler = make_optimizer(self.net.parameters(), cfg.optimizer)
+        self.step, self.history = 0, {"train": [], "test": []}
+
+    def _unlabeled(self):
+        if self.cfg.unlabeled is None:
+            return None, None
+        images = UnlabeledImages(self.cfg.unlabeled, self.cfg.network.input_size)
+        labeled_colors = np.stack([self.train_set[i]["image"].mean((1, 2))
+                                   for i in range(len(self.train_set))])
+        try:
+            chosen = select_matching(labeled_colors, images.average_colors(),
+                                     np.random.default_rng(self.cfg.seed),
+                                     limit=self.cfg.unlabeled_limit)
+        except ValueError as error:
+            raise InputError(self.cfg.unlabeled, str(error)) from None
+        log.info("unlabeled: %d of %d images follow the labeled color histogram",
+                 len(chosen), len(images))
+        return images, chosen
+
+    def state(self):
+        return {"config": dataclasses.asdict(self.cfg), "model": self.net.state_dict(),
+                "optimizer": self.optimizer.state_dict(),
+                "scheduler": self.scheduler.state_dict(), "step": self.step,
+                "torch_rng": torch.get_rng_state(), "history": self.history}
+
+    def resume(self, path):
+        state = load_checkpoint(path)
+        self.net.load_state_dict(state["model"])
+        self.optimizer.load_state_dict(state["optimizer"])
+        self.scheduler.load_state_dict(state["scheduler"])
+        torch.set_rng_state(state["torch_rng"])
+        self.step, self.history = state["step"], state["history"]
+        log.info("resumed from %s at step %d", path, self.step)
+
+    def minibatch(self, index):
+        """The (image, labels) minibatch of optimizer step ``index``."""
+        step = self.schedule.step(index)
+        rng = np.random.default_rng([self.cfg.seed, index])
+        if step.kind == SELF_AUGMENTED:
+            chosen = rng.choice(self.unlabeled_indices, self.cfg.batch_size,
+                                replace=len(self.unlabeled_indices) < self.cfg.batch_size)
+            photos = torch.as_tensor(np.stack([self.unlabeled.image(i) for i in chosen]))
+            return self_augmented_batch(self.net, photos.to(self.device), self.probes, rng,
+                                        self.log_specular_range, self.cfg.max_view_angle)
+        indices = labeled_batch_indices(self.cfg.seed, step.epoch, step.batch,
+                                        self.cfg.batch_size, len(self.train_set))
+        return stack_items([self.train_set[int(i)] for i in indices], self.device)
+
+    def train_step(self, index):
+        batch = self.minibatch(index)
+        self.net.train()
+        terms = losses(self.net(batch["image"]), batch)
+        self.optimizer.zero_grad(set_to_none=True)
+        terms["total"].backward()
+        self.optimizer.step()
+        self.scheduler.step()
+        self.step = index + 1
+        return {name: value.detach().item() for name, value in terms.items()}
+
+
+def run(cfg):
+    """Train (or resume) the run ``cfg``; returns its history."""
+    out = Path(cfg.out)
+    _check_config(out, cfg)
+    run_state = Run(cfg)
+    newest = checkpoint_files(out / "checkpoints")
+    if newest:
+        run_state.resume(newest[-1])
+    schedule = run_state.schedule
+    log.info("%d steps of %d to go, %d epochs of %d steps", schedule.total_steps - run_state.step,
+             schedule.total_steps, schedule.epochs, schedule.steps_per_epoch)
+    writer = SummaryWriter(str(out / "tensorboard"))
+    interval, interval_start = [], time.perf_counter()
+    for index in range(run_state.step, schedule.total_steps):
+        step = schedule.step(index)
+        terms = run_state.train_step(index)
+        interval.append((step.kind, terms))
+        for name, value in terms.items():
+            writer.add_scalar(f"train/{step.kind}/{name}", value, index + 1)
+        writer.add_scalar("train/learning_rate", run_state.scheduler.get_last_lr()[0], index + 1)
+        if (index + 1) % cfg.log_every == 0 or schedule.ends_epoch(index):
+            interval_start = _log_interval(run_state, interval, interval_start, index)
+            interval = []
+        if schedule.ends_epoch(index):
+            _evaluate(run_state, writer, step.epoch)
+        if schedule.ends_epoch(index) or (index + 1) % cfg.checkpoint_every == 0:
+            save_checkpoint(out / "checkpoints", run_state.state())
+    writer.close()
+    return run_state.history
+
+
+def _check_config(out, cfg):
+    """Write config.json, or refuse a run folder made with another configuration."""
+    path = out / "config.json"
+    resolved = json.loads(json.dumps(dataclasses.asdict(cfg)))
+    if path.is_file():
+        if json.loads(path.read_text()) != resolved:
+            raise InputError(out, "holds a run with another configuration; use another --out")
+    else:
+        write_json(path, resolved)
+
+
+def _log_interval(run_state, interval, interval_start, index):
+    """Log the mean losses of the interval per minibatch kind; return the new interval start."""
+    now = time.perf_counter()
+    ms_per_step = 1000.0 * (now - interval_start) / len(interval)
+    left = (run_state.schedule.total_steps - index - 1) * ms_per_step / 1000.0
+    record = {"step": index + 1, "epoch": run_state.schedule.step(index).epoch,
+              "ms_per_step": ms_per_step}
+    for kind in sorted({kind for kind, _ in interval}):
+        values = [terms["total"] for k, terms in interval if k == kind]
+        record[kind] = sum(values) / len(values)
+    run_state.history["train"].append(record)
+    losses_text = " ".join(f"{kind} {record[kind]:.4f}" for kind in sorted(record)
+                           if kind not in ("step", "epoch", "ms_per_step"))
+    log.info("step %d/%d epoch %d | loss %s | %.0f ms/step | %s left", index + 1,
+             run_state.schedule.total_steps, record["epoch"], losses_text, ms_per_step,
+             _duration(left))
+    return now
+
+
+def _evaluate(run_state, writer, epoch):
+    cfg = run_state.cfg
+    if not len(run_state.test_set):
+        log.warning("no test samples: evaluation skipped")
+        return
+    errors, example = evaluate(run_state.net, run_state.test_set, run_state.probes,
+                               run_state.probe_names, cfg.batch_size, run_state.device)
+    run_state.history["test"].append({"step": run_state.step, "epoch": epoch, **errors})
+    for name, value in errors.items():
+        writer.add_scalar(f"test/{name}", value, run_state.step)
+    writer.add_image("test/examples", example, run_state.step)
+    log.info("epoch %d test | %s", epoch, " ".join(f"{k} {v:.4g}" for k, v in errors.items()))
+    out = Path(cfg.out)
+    with atomic_path(out / "examples.png") as tmp:
+        Image.fromarray(np.round(example.numpy().transpose(1, 2, 0) * 255).astype(np.uint8)) \
+            .save(tmp, format="PNG")
+    write_json(out / "history.json", run_state.history)
+    _plot_history(out / "loss_curves.png", run_state.history)
+
+
+def _plot_history(path, history):
+    figure, (train_axis, test_axis) = plt.subplots(1, 2, figsize=(11, 4))
+    for kind in ("labeled", SELF_AUGMENTED):
+        points = [(r["step"], r[kind]) for r in history["train"] if kind in r]
+        if points:
+            train_axis.plot(*zip(*points), label=f"{kind} minibatches")
+    train_axis.set(xlabel="step", ylabel="training loss (sum of MSEs)", yscale="log")
+    train_axis.legend()
+    for name in ("albedo_mse", "log_specular_mse", "log_roughness_mse", "relit_mse"):
+        test_axis.plot([r["step"] for r in history["test"]],
+                       [r[name] for r in history["test"]], marker="o", label=name)
+    test_axis.set(xlabel="step", ylabel="test error", yscale="log")
+    test_axis.legend()
+    figure.tight_layout()
+    with atomic_path(path) as tmp:
+        figure.savefig(tmp, format="png", dpi=100)
+    plt.close(figure)
+
+
+def _duration(seconds):
+    minutes, seconds = divmod(int(seconds), 60)
+    hours, minutes = divmod(minutes, 60)
+    return f"{hours}h{minutes:02d}m" if hours else f"{minutes}m{seconds:02d}s"
