@@ -50,7 +50,7 @@ def camera_to_world(view):
     return matrix
 
 
-def _matrix_text(matrix):
+def matrix_text(matrix):
     return " ".join(repr(float(v)) for v in np.asarray(matrix).ravel())
 
 
@@ -82,8 +82,8 @@ class PlanarSampleRenderer:
         params = dict(
             spp=str(spp), sampler=self.sampler, width=str(width), height=str(height),
             crop_x="0", crop_width=str(width), aspect=repr(height / width),
-            camera=_matrix_text(camera_to_world(view)),
-            probe_to_world=_matrix_text(probe_to_world(rotation_deg)),
+            camera=matrix_text(camera_to_world(view)),
+            probe_to_world=matrix_text(probe_to_world(rotation_deg)),
             probe=self._exr_file(probe.radiance),
             # Texture rows are flipped: Mitsuba's texture v grows with world +y, while our
             # row 0 is the top (largest y) of the sample.

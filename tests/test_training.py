@@ -8,11 +8,14 @@ import torch
 from click.testing import CliRunner
 
 from render.cli import main as render_dataset
+from render.materials import load_material
 from render.probes import find_probes, load_probe
+from render.scene import PlanarSampleRenderer
 from render.torch_renderer import ProbeBank
-from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES
+from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, write_png
 from train.checkpoints import checkpoint_files, load_checkpoint
 from train.cli import main as sa_train
+from train.estimate import main as sa_estimate
 from train.networks import NetworkConfig, SVBRDFNet
 from train.schedule import LABELED, SELF_AUGMENTED, Schedule
 from train.self_augmentation import self_augmented_batch
@@ -53,6 +56,60 @@ def test_self_augmented_training_end_to_end(dataset, tmp_path):
     assert list((run / "tensorboard").glob("events.out.tfevents.*"))
     newest = load_checkpoint(checkpoint_files(run / "checkpoints")[-1])
     assert newest["step"] == 4 + 2 * 8  # 4 labeled steps per epoch; 4 + 4 per SA epoch
+
+
+def test_estimate_from_photos_writes_maps_scene_and_preview(dataset, tmp_path, mi):
+    assert train(dataset, tmp_path / "run", "--labeled-epochs", "1", "--self-augmented-epochs",
+                 "0").exit_code == 0
+    model = checkpoint_files(tmp_path / "run" / "checkpoints")[-1]
+    photo = np.random.default_rng(0).random((40, 50, 3)).astype(np.float32)
+    write_png(tmp_path / "wood photo.png", photo)
+    result = CliRunner().invoke(sa_estimate, [str(tmp_path / "wood photo.png"), "--model",
+                                              str(model), "--out", str(tmp_path / "est"),
+                                              "--probe", str(BUNDLED_PROBES / "park.exr")])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    assert report["network_ms"] > 0 and 0.02 <= report["roughness"] <= 1
+    folder = tmp_path / "est" / "wood photo"
+    for name in ("albedo.exr", "albedo.png", "normal.exr", "normal.png", "material.json",
+                 "scene.xml", "preview.png"):
+        assert (folder / name).is_file(), name
+    estimate = load_material(folder)
+    assert estimate.albedo.shape == (32, 32, 3)
+    assert np.allclose(estimate.specular, report["specular_albedo"], rtol=1e-5)
+
+    # The scene file renders the estimate as the dataset's Mitsuba pipeline does.
+    scene_render = np.array(mi.render(mi.load_file(str(folder / "scene.xml"), spp=64)))
+    reference = PlanarSampleRenderer(spp=64).render(estimate, load_probe(
+        folder / "mitsuba_probe.exr"), seed=1)
+    assert np.abs(scene_render.mean((0, 1)) - reference.mean((0, 1))).max() < \
+        0.05 * reference.mean()
+
+
+def test_estimate_refuses_bad_photos_and_foreign_checkpoints(dataset, tmp_path):
+    assert train(dataset, tmp_path / "run", "--labeled-epochs", "1", "--self-augmented-epochs",
+                 "0").exit_code == 0
+    model = checkpoint_files(tmp_path / "run" / "checkpoints")[-1]
+    (tmp_path / "notes.jpg").write_text("not a photo")
+    write_png(tmp_path / "good.png", np.full((32, 32, 3), 0.5, np.float32))
+    bad_photo = CliRunner().invoke(sa_estimate, [str(tmp_path / "good.png"),
+                                                 str(tmp_path / "notes.jpg"), "--model",
+                                                 str(model), "--out", str(tmp_path / "est")])
+    assert bad_photo.exit_code != 0 and "notes.jpg" in bad_photo.output
+    assert not (tmp_path / "est").exists()  # nothing written, not even for the good photo
+
+    state = load_checkpoint(model)
+    state["config"]["network"]["width"] = 16  # weights of width 8 under another architecture
+    torch.save(state, tmp_path / "other.pt")
+    other = CliRunner().invoke(sa_estimate, [str(tmp_path / "good.png"), "--model",
+                                             str(tmp_path / "other.pt"), "--out",
+                                             str(tmp_path / "est")])
+    assert other.exit_code != 0 and "architecture" in other.output
+    torch.save({"weights": 1}, tmp_path / "foreign.pt")
+    foreign = CliRunner().invoke(sa_estimate, [str(tmp_path / "good.png"), "--model",
+                                               str(tmp_path / "foreign.pt"), "--out",
+                                               str(tmp_path / "est")])
+    assert foreign.exit_code != 0 and "not an sa-svbrdf checkpoint" in foreign.output
 
 
 def test_resuming_gives_the_weights_of_an_uninterrupted_run(dataset, tmp_path):

@@ -1,0 +1,120 @@
+"""``sa-estimate``: the reduced SVBRDF of photos, from a trained SVBRDF-net checkpoint.
+
+For each photo (read by train.photos.read_photo: linearized, centre square, resized to the
+network's input size) it writes a folder ``OUT/<photo stem>/`` holding:
+
+    albedo.exr, albedo.png     relative diffuse albedo (mean 0.5): linear EXR, sRGB PNG
+    normal.exr, normal.png     unit normals encoded (n + 1) / 2, OpenGL convention
+    material.json              relative specular albedo and Ward roughness, photo, model: the
+                               folder is a material folder that render-dataset reads
+    scene.xml                  a Mitsuba scene rendering the estimate (render.scene_file)
+    preview.png                photo | albedo | normals | the estimate relit under ``probe``
+                               (torch renderer, auto-exposed), a probe unrelated to the photo
+
+and prints a JSON line per photo with the milliseconds the network took. Every photo is read
+and checked before anything is written; an existing output folder is refused.
+"""
+
+import json
+import time
+from pathlib import Path
+
+import click
+import numpy as np
+import torch
+from PIL import Image
+
+from render.atomic_files import atomic_path
+from render.color import to_png_bytes
+from render.errors import InputError
+from render.images import write_png
+from render.materials import ReducedSVBRDF, write_material
+from render.probes import load_probe
+from render.scene_file import write_scene_file
+from render.torch_renderer import ProbeBank, expose, render
+from train.checkpoints import load_checkpoint, load_weights
+from train.networks import SVBRDFNet
+from train.photos import read_photo
+from train.trainer import config_from_dict
+
+REPO = Path(__file__).resolve().parent.parent
+DEFAULT_PROBE = REPO / "probes" / "park.exr"
+
+
+def load_network(path, device):
+    """The SVBRDF-net of a checkpoint, in evaluation mode."""
+    state = load_checkpoint(path)
+    try:
+        network = config_from_dict(state["config"]).network
+    except (KeyError, TypeError) as error:
+        raise InputError(path, f"checkpoint has no valid configuration ({error})") from None
+    net = SVBRDFNet(network)
+    load_weights(net, state, path)
+    return net.to(device).eval()
+
+
+def estimate(net, photo):
+    """(3, S, S) photo -> ReducedSVBRDF of relative quantities (name unset)."""
+    with torch.no_grad():
+        output = net(torch.as_tensor(photo)[None].to(next(net.parameters()).device))
+    albedo = output["albedo"][0].cpu().numpy().transpose(1, 2, 0)
+    normal = output["normal"][0].cpu().numpy().transpose(1, 2, 0)
+    specular = np.exp(output["log_specular"][0].cpu().numpy())
+    roughness = float(np.clip(np.exp(output["log_roughness"][0, 0].item()), 0.02, 1.0))
+    return ReducedSVBRDF("", np.ascontiguousarray(albedo), np.ascontiguousarray(normal),
+                         specular.astype(np.float32), roughness)
+
+
+@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("photos", nargs=-1, required=True, type=click.Path())
+@click.option("--model", required=True, type=click.Path(), help="sa-train checkpoint (.pt).")
+@click.option("--out", required=True, type=click.Path(), help="Output folder.")
+@click.option("--probe", type=click.Path(), default=str(DEFAULT_PROBE), show_default=True,
+              help="HDR probe of the relit preview and the Mitsuba scene.")
+@click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
+def main(photos, model, out, probe, device):
+    """Estimate the reduced SVBRDF of each PHOTO."""
+    try:
+        net = load_network(model, torch.device(device))
+        size = net.config.input_size
+        inputs = [read_photo(path, size) for path in photos]
+        stems = [Path(path).stem for path in photos]
+        if len(set(stems)) != len(stems):
+            raise InputError(photos[0], "two photos share a file name stem (output folders)")
+        preview_probe = load_probe(probe)
+        bank = ProbeBank([preview_probe.radiance])  # previews render on the CPU
+        for path, photo, stem in zip(photos, inputs, stems):
+            start = time.perf_counter()
+            svbrdf = estimate(net, photo)
+            milliseconds = 1000.0 * (time.perf_counter() - start)
+            folder = Path(out) / stem
+            write_material(folder, ReducedSVBRDF(stem, svbrdf.albedo, svbrdf.normal,
+                                                 svbrdf.specular, svbrdf.roughness),
+                           {"photo": str(Path(path).resolve()), "model": str(Path(model))})
+            _write_pictures(folder, photo, svbrdf, bank, preview_probe)
+            click.echo(json.dumps({"photo": str(path), "out": str(folder),
+                                   "network_ms": round(milliseconds, 1),
+                                   "specular_albedo": svbrdf.specular.tolist(),
+                                   "roughness": svbrdf.roughness}))
+    except (InputError, ValueError) as error:
+        raise click.ClickException(str(error)) from None
+
+
+def _write_pictures(folder, photo, svbrdf, bank, probe):
+    write_png(folder / "albedo.png", svbrdf.albedo)
+    with atomic_path(folder / "normal.png") as tmp:
+        Image.fromarray(np.round((svbrdf.normal + 1) / 2 * 255).astype(np.uint8)).save(tmp, "PNG")
+    write_scene_file(folder, svbrdf, probe)
+    tensors = [torch.as_tensor(a.transpose(2, 0, 1))[None] for a in (svbrdf.albedo,
+                                                                     svbrdf.normal)]
+    relit = expose(render(tensors[0], tensors[1], torch.as_tensor(svbrdf.specular)[None],
+                          torch.tensor([svbrdf.roughness]), bank, [0]))[0]
+    panels = [to_png_bytes(photo.transpose(1, 2, 0)), to_png_bytes(svbrdf.albedo),
+              np.round((svbrdf.normal + 1) / 2 * 255).astype(np.uint8),
+              to_png_bytes(relit.numpy().transpose(1, 2, 0))]
+    with atomic_path(folder / "preview.png") as tmp:
+        Image.fromarray(np.concatenate(panels, axis=1)).save(tmp, "PNG")
+
+
+if __name__ == "__main__":
+    main()
