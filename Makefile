@@ -23,9 +23,16 @@ demo: setup
 	mkdir -p $(DEMO_OUT)/all-materials
 	cp -r scenes/materials/*/ $(DEMO_OUT)/materials/*/ $(DEMO_OUT)/all-materials/
 	$(BIN)/render-dataset --probes probes --svbrdfs $(DEMO_OUT)/all-materials \
-		--out $(DEMO_OUT)/dataset --resolution 128 --render-size 192 --rotations 2 --crops 2 \
-		--workers 2
+		--out $(DEMO_OUT)/dataset --resolution 64 --render-size 128 --rotations 2 --crops 4 \
+		--spp 256 --test-materials 0.34 --test-probes 0.34 --workers 2
 	@echo "Contact sheet: $(DEMO_OUT)/dataset/contact_sheet.png"
+	$(BIN)/sa-train --dataset $(DEMO_OUT)/dataset --unlabeled $(DEMO_OUT)/dataset \
+		--probes probes --out $(DEMO_OUT)/train --network small --labeled-epochs 3 \
+		--self-augmented-epochs 3 --log-every 10
+	@echo "Loss curves and test examples: $(DEMO_OUT)/train/{loss_curves,examples}.png"
+	$(BIN)/sa-estimate scenes/photos/brick-reference-01.jpg --model $(DEMO_OUT)/train \
+		--out $(DEMO_OUT)/estimate --probe probes/env-studio.exr
+	@echo "Estimate: $(DEMO_OUT)/estimate/brick-reference-01/preview.png"
 	$(BIN)/check-renderer --probes probes --svbrdfs scenes/materials --size 64 \
 		--out $(DEMO_OUT)/check-renderer
 	@echo "Mitsuba | torch | 10x difference: $(DEMO_OUT)/check-renderer/*.png"

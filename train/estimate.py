@@ -32,7 +32,7 @@ from render.materials import ReducedSVBRDF, write_material
 from render.probes import load_probe
 from render.scene_file import write_scene_file
 from render.torch_renderer import ProbeBank, expose, render
-from train.checkpoints import load_checkpoint, load_weights
+from train.checkpoints import checkpoint_files, load_checkpoint, load_weights
 from train.networks import SVBRDFNet
 from train.photos import read_photo
 from train.trainer import config_from_dict
@@ -42,7 +42,14 @@ DEFAULT_PROBE = REPO / "probes" / "park.exr"
 
 
 def load_network(path, device):
-    """The SVBRDF-net of a checkpoint, in evaluation mode."""
+    """The SVBRDF-net of a checkpoint (or of a run folder's newest checkpoint), in evaluation
+    mode."""
+    path = Path(path)
+    if path.is_dir():
+        newest = checkpoint_files(path / "checkpoints")
+        if not newest:
+            raise InputError(path, "run folder without checkpoints")
+        path = newest[-1]
     state = load_checkpoint(path)
     try:
         network = config_from_dict(state["config"]).network
@@ -67,7 +74,8 @@ def estimate(net, photo):
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("photos", nargs=-1, required=True, type=click.Path())
-@click.option("--model", required=True, type=click.Path(), help="sa-train checkpoint (.pt).")
+@click.option("--model", required=True, type=click.Path(),
+              help="sa-train checkpoint (.pt), or a run folder (its newest checkpoint).")
 @click.option("--out", required=True, type=click.Path(), help="Output folder.")
 @click.option("--probe", type=click.Path(), default=str(DEFAULT_PROBE), show_default=True,
               help="HDR probe of the relit preview and the Mitsuba scene.")
