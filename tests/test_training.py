@@ -61,11 +61,10 @@ def test_self_augmented_training_end_to_end(dataset, tmp_path):
 def test_estimate_from_photos_writes_maps_scene_and_preview(dataset, tmp_path, mi):
     assert train(dataset, tmp_path / "run", "--labeled-epochs", "1", "--self-augmented-epochs",
                  "0").exit_code == 0
-    model = checkpoint_files(tmp_path / "run" / "checkpoints")[-1]
     photo = np.random.default_rng(0).random((40, 50, 3)).astype(np.float32)
     write_png(tmp_path / "wood photo.png", photo)
     result = CliRunner().invoke(sa_estimate, [str(tmp_path / "wood photo.png"), "--model",
-                                              str(model), "--out", str(tmp_path / "est"),
+                                              str(tmp_path / "run"), "--out", str(tmp_path / "est"),
                                               "--probe", str(BUNDLED_PROBES / "park.exr")])
     assert result.exit_code == 0, result.output
     report = json.loads(result.stdout.strip().splitlines()[-1])

@@ -204,7 +204,9 @@ def run(cfg):
             interval = []
         if schedule.ends_epoch(index):
             _evaluate(run_state, writer, step.epoch)
-        if schedule.ends_epoch(index) or (index + 1) % cfg.checkpoint_every == 0:
+            save_checkpoint(out / "checkpoints", run_state.state())
+            interval_start = time.perf_counter()  # ms per step counts training steps only
+        elif (index + 1) % cfg.checkpoint_every == 0:
             save_checkpoint(out / "checkpoints", run_state.state())
     writer.close()
     return run_state.history
