@@ -1,0 +1,42 @@
+"""Benchmark of SVBRDF-net inference: milliseconds per photo (network forward pass only, batch
+of one, after warm-up) for the paper's and the small configuration. Prints JSON.
+
+    python benchmarks/estimate_speed.py [--device cpu|cuda] [--repeats 10]
+"""
+
+import json
+import os
+import platform
+import time
+
+import click
+import torch
+
+from train.networks import SMALL_CPU_CONFIG, NetworkConfig, SVBRDFNet
+
+
+@click.command()
+@click.option("--device", default="cpu", show_default=True)
+@click.option("--repeats", default=10, show_default=True)
+def main(device, repeats):
+    results = {}
+    for name, config in (("paper", NetworkConfig()), ("small", SMALL_CPU_CONFIG)):
+        net = SVBRDFNet(config).to(device).eval()
+        photo = torch.rand(1, 3, config.input_size, config.input_size, device=device)
+        with torch.no_grad():
+            net(photo)  # warm-up
+            if device.startswith("cuda"):
+                torch.cuda.synchronize()
+            start = time.perf_counter()
+            for _ in range(repeats):
+                net(photo)
+            if device.startswith("cuda"):
+                torch.cuda.synchronize()
+        results[name] = {"input": config.input_size,
+                         "ms_per_photo": round(1000 * (time.perf_counter() - start) / repeats, 2)}
+    print(json.dumps({"device": device, "machine": f"{platform.machine()}, {os.cpu_count()} cores",
+                      "torch_threads": torch.get_num_threads(), "networks": results}, indent=2))
+
+
+if __name__ == "__main__":
+    main()
