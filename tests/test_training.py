@@ -139,6 +139,7 @@ def test_bad_input_gets_clear_errors(dataset, tmp_path):
                                                str(tmp_path / "b"), "--probes",
                                                str(BUNDLED_PROBES), "--network", "small"])
     assert wrong_size.exit_code != 0 and "samples are 32x32" in wrong_size.output
+    assert not (tmp_path / "b").exists()  # a refused run writes nothing
     assert train(dataset, tmp_path / "c", "--labeled-epochs", "1", "--self-augmented-epochs",
                  "0").exit_code == 0
     other = train(dataset, tmp_path / "c", "--labeled-epochs", "2", "--self-augmented-epochs",

@@ -94,7 +94,6 @@ class Run:
 
     def __init__(self, cfg):
         self.cfg = cfg
-        self.out = Path(cfg.out)
         self.device = torch.device(cfg.device)
         self.train_set = LabeledDataset(cfg.dataset, "train")
         self.test_set = LabeledDataset(cfg.dataset, "test")
@@ -112,7 +111,7 @@ class Run:
         self.unlabeled, self.unlabeled_indices = self._unlabeled()
         self.schedule = Schedule(len(self.train_set) // cfg.batch_size, cfg.labeled_epochs,
                                  cfg.self_augmented_epochs,
-                                 cfg.unlabeled_per_labeled if self.unlabeled else 0)
+                                 cfg.unlabeled_per_labeled if self.unlabeled is not None else 0)
         log_specular = np.stack([self.train_set[i]["log_specular"]
                                  for i in range(len(self.train_set))])
         self.log_specular_range = (float(log_specular.min()), float(log_specular.max()))
@@ -182,8 +181,8 @@ class Run:
 def run(cfg):
     """Train (or resume) the run ``cfg``; returns its history."""
     out = Path(cfg.out)
+    run_state = Run(cfg)  # checks the inputs before anything is written
     _check_config(out, cfg)
-    run_state = Run(cfg)
     newest = checkpoint_files(out / "checkpoints")
     if newest:
         run_state.resume(newest[-1])
