@@ -10,7 +10,8 @@ Protocol (one material class, wood, as the paper trains one network per class):
    photos (the labels are never read).
 4. ``sa-train`` twice from the same seed with the same schedule: without unlabeled data (the
    baseline) and with it (self-augmentation).
-Prints the final test errors of both runs as JSON and writes them to EXP/results.json.
+Prints the test errors of both runs, at the last epoch and averaged over the last five (the
+errors move from epoch to epoch), as JSON, and writes them to EXP/results.json.
 """
 
 import json
@@ -22,6 +23,8 @@ from pathlib import Path
 import click
 
 BIN = Path(sys.executable).parent
+ERRORS = ("albedo_mse", "normal_angle_deg", "log_specular_mse", "log_roughness_mse", "relit_mse")
+LAST_EPOCHS = 5
 
 
 def command(name, *arguments):
@@ -60,8 +63,12 @@ def main(shared, out, labeled, test_sets, unlabeled, epochs, seed):
         command("sa-train", "--dataset", out / "labeled", "--out", out / run, "--probes", probes,
                 "--network", "small", "--labeled-epochs", epochs, "--self-augmented-epochs",
                 epochs, "--seed", seed, "--log-every", 100, *extra)
-        history = json.loads((out / run / "history.json").read_text())
-        results[run] = history["test"][-1]
+        tests = json.loads((out / run / "history.json").read_text())["test"]
+        last = tests[-LAST_EPOCHS:]
+        results[run] = {"final": tests[-1],
+                        f"mean_of_last_{LAST_EPOCHS}_epochs": {
+                            name: sum(record[name] for record in last) / len(last)
+                            for name in ERRORS}}
     (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
     print(json.dumps(results, indent=2))
 
