@@ -29,10 +29,10 @@ demo: setup
 	$(BIN)/sa-train --dataset $(DEMO_OUT)/dataset --unlabeled $(DEMO_OUT)/dataset \
 		--probes probes --out $(DEMO_OUT)/train --network small --labeled-epochs 3 \
 		--self-augmented-epochs 3 --log-every 10
-	@echo "Loss curves and test examples: $(DEMO_OUT)/train/{loss_curves,examples}.png"
+	@echo "Loss curves, test examples with ground truth: $(DEMO_OUT)/train/{loss_curves,examples}.png"
 	$(BIN)/sa-estimate scenes/photos/brick-reference-01.jpg --model $(DEMO_OUT)/train \
 		--out $(DEMO_OUT)/estimate --probe probes/env-studio.exr
-	@echo "Estimate: $(DEMO_OUT)/estimate/brick-reference-01/preview.png"
+	@echo "Estimate: $(DEMO_OUT)/estimate/report.html"
 	$(BIN)/check-renderer --probes probes --svbrdfs scenes/materials --size 64 \
 		--out $(DEMO_OUT)/check-renderer
 	@echo "Mitsuba | torch | 10x difference: $(DEMO_OUT)/check-renderer/*.png"

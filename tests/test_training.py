@@ -73,6 +73,7 @@ def test_estimate_from_photos_writes_maps_scene_and_preview(dataset, tmp_path, m
     for name in ("albedo.exr", "albedo.png", "normal.exr", "normal.png", "material.json",
                  "scene.xml", "preview.png"):
         assert (folder / name).is_file(), name
+    assert 'wood%20photo/preview.png' in (tmp_path / "est" / "report.html").read_text()
     estimate = load_material(folder)
     assert estimate.albedo.shape == (32, 32, 3)
     assert np.allclose(estimate.specular, report["specular_albedo"], rtol=1e-5)

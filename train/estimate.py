@@ -11,13 +11,16 @@ network's input size) it writes a folder ``OUT/<photo stem>/`` holding:
     preview.png                photo | albedo | normals | the estimate relit under ``probe``
                                (torch renderer, auto-exposed), a probe unrelated to the photo
 
-and prints a JSON line per photo with the milliseconds the network took. Every photo is read
+and ``OUT/report.html``, a page of all the previews with the estimated parameters. It
+prints a JSON line per photo with the milliseconds the network took. Every photo is read
 and checked before anything is written; an existing output folder is refused.
 """
 
+import html
 import json
 import time
 from pathlib import Path
+from urllib.parse import quote
 
 import click
 import numpy as np
@@ -91,6 +94,7 @@ def main(photos, model, out, probe, device):
             raise InputError(photos[0], "two photos share a file name stem (output folders)")
         preview_probe = load_probe(probe)
         bank = ProbeBank([preview_probe.radiance])  # previews render on the CPU
+        reports = []
         for path, photo, stem in zip(photos, inputs, stems):
             start = time.perf_counter()
             svbrdf = estimate(net, photo)
@@ -100,12 +104,28 @@ def main(photos, model, out, probe, device):
                                                  svbrdf.specular, svbrdf.roughness),
                            {"photo": str(Path(path).resolve()), "model": str(Path(model))})
             _write_pictures(folder, photo, svbrdf, bank, preview_probe)
-            click.echo(json.dumps({"photo": str(path), "out": str(folder),
-                                   "network_ms": round(milliseconds, 1),
-                                   "specular_albedo": svbrdf.specular.tolist(),
-                                   "roughness": svbrdf.roughness}))
+            reports.append({"photo": str(path), "out": str(folder),
+                            "network_ms": round(milliseconds, 1),
+                            "specular_albedo": svbrdf.specular.tolist(),
+                            "roughness": svbrdf.roughness})
+            click.echo(json.dumps(reports[-1]))
+        _write_report(Path(out) / "report.html", reports)
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
+
+
+def _write_report(path, reports):
+    """An HTML page: each photo's preview (photo | albedo | normals | relit) and parameters."""
+    rows = "".join(
+        f"<h2>{html.escape(Path(r['photo']).name)}</h2>"
+        f"<img src=\"{quote(Path(r['out']).name)}/preview.png\" width=\"1024\">"
+        f"<p>relative specular albedo {' '.join(f'{v:.4f}' for v in r['specular_albedo'])}; "
+        f"Ward roughness {r['roughness']:.4f}; network {r['network_ms']} ms</p>" for r in reports)
+    page = ("<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>sa-estimate</title>"
+            "</head><body><h1>Estimates</h1><p>Each row: photo | relative diffuse albedo | "
+            f"normals | the estimate relit under another probe.</p>{rows}</body></html>\n")
+    with atomic_path(path) as tmp:
+        tmp.write_text(page)
 
 
 def _write_pictures(folder, photo, svbrdf, bank, probe):

@@ -4,14 +4,14 @@ Errors (means over the test samples): ``albedo_mse`` (relative diffuse albedo),
 ``normal_angle_deg``, ``log_specular_mse``, ``log_roughness_mse`` (natural logs), and
 ``relit_mse``: the exposed torch renders of the predicted and the true parameters compared
 under lighting the photo was not taken under (the next probe of the bank, rotated by another
-180 degrees).
+180 degrees). The example picture shows those renders beside the maps.
 """
 
 import numpy as np
 import torch
 
 from render.color import linear_to_srgb
-from train.losses import LABELS, normal_angle_deg, relit_error
+from train.losses import LABELS, normal_angle_deg, relit
 
 EXAMPLES = 4
 
@@ -33,7 +33,10 @@ def evaluate(net, dataset, probes, probe_names, batch_size, device):
             prediction = net(batch["image"])
             novel_probe = [(probe_names.index(item["provenance"]["probe"]) + 1) % len(probes)
                            if item["provenance"]["probe"] in probe_names else 0 for item in items]
-            novel_rotation = [item["provenance"]["rotation_deg"] + 180.0 for item in items]
+            novel_rotation = torch.tensor([item["provenance"]["rotation_deg"] + 180.0
+                                           for item in items])
+            relit_prediction = relit(prediction, probes, novel_probe, novel_rotation)
+            relit_truth = relit(batch, probes, novel_probe, novel_rotation)
             errors = {
                 "albedo_mse": torch.mean((prediction["albedo"] - batch["albedo"]) ** 2),
                 "normal_angle_deg": normal_angle_deg(prediction["normal"], batch["normal"]),
@@ -41,26 +44,27 @@ def evaluate(net, dataset, probes, probe_names, batch_size, device):
                                                 - batch["log_specular"]) ** 2),
                 "log_roughness_mse": torch.mean((prediction["log_roughness"]
                                                  - batch["log_roughness"]) ** 2),
-                "relit_mse": relit_error(prediction, batch, probes, novel_probe,
-                                         torch.tensor(novel_rotation, dtype=torch.float32)),
+                "relit_mse": torch.mean((relit_prediction - relit_truth) ** 2),
             }
             for name, value in errors.items():
                 totals[name] = totals.get(name, 0.0) + float(value) * len(items)
             count += len(items)
             if example is None:
-                example = example_picture(batch, prediction)
+                example = example_picture(batch, prediction, relit_prediction, relit_truth)
     net.train()
     return {name: total / count for name, total in totals.items()}, example
 
 
-def example_picture(batch, prediction):
+def example_picture(batch, prediction, relit_prediction, relit_truth):
     """Rows of up to EXAMPLES samples: input | albedo predicted | albedo true | normal predicted
-    | normal true (normals encoded (n + 1) / 2), as one (3, H, W) display image."""
+    | normal true (encoded (n + 1) / 2) | relit predicted | relit true, as one (3, H, W) display
+    image."""
     rows = []
     for i in range(min(EXAMPLES, batch["image"].shape[0])):
         display = [linear_to_srgb(t.cpu().numpy()) for t in (
             batch["image"][i], prediction["albedo"][i], batch["albedo"][i].clamp(0, 1))]
         display += [(t.cpu().numpy() + 1) / 2 for t in (prediction["normal"][i],
                                                          batch["normal"][i])]
+        display += [linear_to_srgb(t[i].cpu().numpy()) for t in (relit_prediction, relit_truth)]
         rows.append(np.concatenate(display, axis=2))
     return torch.as_tensor(np.concatenate(rows, axis=1))

@@ -29,16 +29,13 @@ def normal_angle_deg(prediction, target):
     return torch.rad2deg(torch.acos(cosine)).mean()
 
 
-def relit_error(prediction, target, probes, probe_index, rotation_deg):
-    """Mean squared error between the exposed renders of the predicted and the true parameters
-    under the given probes and rotations (lighting the photo was not taken under)."""
-    def relit(parameters):
-        hdr = render(parameters["albedo"], parameters["normal"],
-                     torch.exp(parameters["log_specular"]),
-                     torch.exp(parameters["log_roughness"]).clamp(0.02, 1.0), probes,
-                     probe_index, rotation_deg)
-        return expose(hdr)
-    return torch.mean((relit(prediction) - relit(target)) ** 2)
+def relit(parameters, probes, probe_index, rotation_deg):
+    """Exposed torch renders (B, 3, H, W) of label-form parameters under the given probes and
+    rotations."""
+    hdr = render(parameters["albedo"], parameters["normal"], torch.exp(parameters["log_specular"]),
+                 torch.exp(parameters["log_roughness"]).clamp(0.02, 1.0), probes, probe_index,
+                 rotation_deg)
+    return expose(hdr)
 
 
 def clamp_to_valid(prediction, log_specular_range):
