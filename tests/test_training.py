@@ -2,6 +2,8 @@
 self-augmented minibatch."""
 
 import json
+import subprocess
+import sys
 import numpy as np
 import pytest
 import torch
@@ -12,7 +14,7 @@ from render.materials import load_material
 from render.probes import find_probes, load_probe
 from render.scene import PlanarSampleRenderer
 from render.torch_renderer import ProbeBank
-from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, write_png
+from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO, write_png
 from train.checkpoints import checkpoint_files, load_checkpoint
 from train.cli import main as sa_train
 from train.estimate import main as sa_estimate
@@ -174,3 +176,12 @@ def test_self_augmented_minibatch_is_a_valid_labeled_pair():
     assert (batch["log_roughness"] >= np.log(0.02) - 1e-6).all()
     assert (batch["log_roughness"] <= 1e-6).all()
     assert net.training  # the mode is restored
+
+
+def test_training_and_estimation_do_not_import_mitsuba():
+    """Training runs on GPU machines without libLLVM: train/ imports Mitsuba nowhere."""
+    code = ("import sys, train.cli, train.estimate; "
+            "assert 'mitsuba' not in sys.modules and 'drjit' not in sys.modules")
+    result = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
+                            text=True)
+    assert result.returncode == 0, result.stderr
