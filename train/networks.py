@@ -5,7 +5,8 @@ All three networks share the structure of their analysis sub-network: ``levels``
 ``width`` channels and each next one twice as many, up to ``max_width``. Then:
 
 - ``HomogeneousNet``: a fully connected synthesis with ``hidden`` (1024) hidden units that
-  predicts the log relative specular albedo (3 values) and the log Ward roughness (1 value).
+  predicts the log relative specular albedo (3 values) and the log Ward roughness (1 value)
+  (or, as BRDF-net, 2 values from a monochrome image).
   (The paper predicts a roughness per color channel; the reduced model and the labels here
   have one.)
 - ``MapNet``: a U-Net style synthesis that mirrors the analysis, each block a 3x3 convolution,
@@ -61,9 +62,9 @@ def _block(in_channels, out_channels):
 class Analysis(nn.Module):
     """The shared structure: blocks each followed by 2x2 max pooling."""
 
-    def __init__(self, config):
+    def __init__(self, config, in_channels=3):
         super().__init__()
-        channels = [3] + config.channels()
+        channels = [in_channels] + config.channels()
         self.blocks = nn.ModuleList(_block(a, b) for a, b in zip(channels, channels[1:]))
 
     def forward(self, image):
@@ -78,19 +79,22 @@ class Analysis(nn.Module):
 
 
 class HomogeneousNet(nn.Module):
-    """Photo -> (log relative specular albedo (B, 3), log roughness (B, 1))."""
+    """Image (B, in_channels, S, S) -> homogeneous parameters (B, outputs).
 
-    def __init__(self, config):
+    In SVBRDF-net: a photo -> log relative specular albedo (3) and log roughness (1). In
+    BRDF-net (the paper's validation): a monochrome sphere -> 2 values (train.brdf_validation).
+    """
+
+    def __init__(self, config, in_channels=3, outputs=4):
         super().__init__()
-        self.analysis = Analysis(config)
+        self.analysis = Analysis(config, in_channels)
         bottleneck = config.channels()[-1] * (config.input_size // 2 ** config.levels) ** 2
         self.synthesis = nn.Sequential(nn.Flatten(), nn.Linear(bottleneck, config.hidden),
-                                       nn.ReLU(inplace=True), nn.Linear(config.hidden, 4))
+                                       nn.ReLU(inplace=True), nn.Linear(config.hidden, outputs))
 
     def forward(self, image):
         _, bottleneck = self.analysis(image)
-        output = self.synthesis(bottleneck)  # (B, 4)
-        return output[:, :3], output[:, 3:]
+        return self.synthesis(bottleneck)
 
 
 class MapNet(nn.Module):
@@ -130,7 +134,8 @@ class SVBRDFNet(nn.Module):
         if image.shape[1:] != (3, self.config.input_size, self.config.input_size):
             raise ValueError(f"expected photos of shape (B, 3, {self.config.input_size}, "
                              f"{self.config.input_size}), got {tuple(image.shape)}")
-        log_specular, log_roughness = self.homogeneous(image)
+        homogeneous = self.homogeneous(image)  # (B, 4)
+        log_specular, log_roughness = homogeneous[:, :3], homogeneous[:, 3:]
         return {"albedo": self.albedo(image), "normal": decode_normal(self.normal(image)),
                 "log_specular": log_specular, "log_roughness": log_roughness}
 

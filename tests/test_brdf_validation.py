@@ -1,0 +1,64 @@
+"""sa-validate: the search space, the sphere tables against direct renders, and the pipeline
+end to end at toy size."""
+
+import numpy as np
+import pytest
+import torch
+from click.testing import CliRunner
+
+from render.color import REC709_LUMINANCE
+from render.probes import find_probes, load_probe
+from render.torch_renderer import ProbeBank, expose, render, sphere_normals
+from tests.conftest import BUNDLED_PROBES
+from train import brdf_space
+from train.brdf_validation import SphereRenderer, from_targets, main
+
+
+def test_search_space_and_patterns():
+    train, test = brdf_space.training_brdfs(), brdf_space.test_brdfs()
+    assert train.shape == (1500, 3) and test.shape == (9 * 9 * 14, 3)
+    assert np.isclose(train[:, 2].min(), 0.02) and np.isclose(train[:, 0].max(), 1.0)
+    assert not (set(map(tuple, test.round(6))) & set(map(tuple, train.round(6))))
+    counts = {p: brdf_space.labeled_mask(p).sum() for p in
+              ("dense", "5x5x7", "3x3x5", "2x2x2", "random-12.5", "random-3.7")}
+    assert counts == {"dense": 1500, "5x5x7": 175, "3x3x5": 45, "2x2x2": 8,
+                      "random-12.5": 188, "random-3.7": 56}
+    corners = train[brdf_space.labeled_mask("2x2x2")]
+    assert set(np.round(corners[:, 2], 6)) == {0.02, 1.0}  # the extremes of each axis
+    with pytest.raises(ValueError, match="unknown sampling pattern"):
+        brdf_space.labeled_mask("half")
+    round_trip = from_targets(brdf_space.targets(train))
+    assert np.allclose(round_trip[:, 0] / round_trip[:, 1], train[:, 0] / train[:, 1])
+    assert np.allclose(round_trip[:, 2], train[:, 2])
+
+
+def test_sphere_tables_match_direct_renders():
+    files = find_probes(BUNDLED_PROBES)
+    lightings = np.array([[0, 30.0], [2, 200.0]])
+    levels = np.geomspace(0.1, 1.0, 5)  # broad levels only: the sharp ones cost seconds each
+    renderer = SphereRenderer(files, 16, lightings, "cpu", levels)
+    gray = [np.repeat(r @ REC709_LUMINANCE, 3).reshape(r.shape)
+            for r in (load_probe(p).radiance for p in files)]
+    normal, mask = sphere_normals(16)
+    brdfs = np.array([[0.3, 0.7, levels[2]],  # on a table level: exact
+                      [0.8, 0.2, np.sqrt(levels[3] * levels[4])]])  # interpolated
+    for brdf in brdfs:
+        for k, (probe, rotation) in enumerate(lightings):
+            direct = render((torch.full((1, 3, 16, 16), brdf[0]) * mask),
+                            normal[None], torch.full((1, 3), brdf[1]),
+                            torch.tensor([brdf[2]], dtype=torch.float32), ProbeBank(gray),
+                            [int(probe)], torch.tensor([rotation], dtype=torch.float32))
+            expected = expose(direct * mask)[:, :1]
+            table = renderer(brdf[None], [k])
+            assert torch.abs(table - expected).max() < 0.02, (brdf, k)
+
+
+def test_pipeline_end_to_end_at_toy_size(tmp_path):
+    result = CliRunner().invoke(main, ["--probes", str(BUNDLED_PROBES), "--out",
+                                       str(tmp_path / "val"), "--config", "toy",
+                                       "--patterns", "2x2x2"])
+    assert result.exit_code == 0, result.output
+    for name in ("table.csv", "table.md", "heat_maps.png", "results.json", "config.json"):
+        assert (tmp_path / "val" / name).is_file(), name
+    table = (tmp_path / "val" / "table.md").read_text()
+    assert "| 2x2x2 | 8 |" in table and "| dense | 1500 |" in table

@@ -1,0 +1,321 @@
+"""``sa-validate``: the paper's validation of self-augmentation on BRDF-net.
+
+Task: a monochrome image of a sphere of one homogeneous Ward BRDF under a monochrome probe ->
+``(log(diffuse / specular), log(alpha))`` (train.brdf_space). Spheres are rendered with the
+torch renderer (``render.torch_renderer.sphere_normals``); probes are reduced to their Rec. 709
+luminance; each image is auto-exposed and clamped like the dataset's, so only the ratio of the
+albedos is observable.
+
+A *lighting* is a (probe, rotation) pair; ``lightings`` of them are drawn once per run. Each
+labeled BRDF is seen under lightings drawn from that set; each unlabeled BRDF, and each test
+BRDF, under one lighting of the set fixed for the run.
+A run trains BRDF-net (train.networks.HomogeneousNet, 1 channel in, 2 out) on labeled
+minibatches for ``labeled_iterations``; then, for ``augmented_iterations``, either labeled
+minibatches alone (no self-augmentation) or pairs of a self-augmented minibatch (predict the
+unlabeled spheres, clamp to the search space, render under a new lighting) and a labeled one.
+
+Error, over the test set, each test BRDF under a lighting of its own: the MSE between the
+exposed renders of the estimated and the true BRDF under that lighting (``render_mse``), and
+the MSE of the two predicted values.
+"""
+
+import csv
+import dataclasses
+import json
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import click
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+
+from render.atomic_files import atomic_path, write_json  # noqa: E402
+from render.color import REC709_LUMINANCE  # noqa: E402
+from render.errors import InputError  # noqa: E402
+from render.probes import find_probes, load_probe  # noqa: E402
+from render.torch_renderer import ProbeBank, expose, render, sphere_normals  # noqa: E402
+from train import brdf_space  # noqa: E402
+from train.networks import NetworkConfig, HomogeneousNet  # noqa: E402
+from train.optimization import OptimizerConfig, make_optimizer  # noqa: E402
+
+log = logging.getLogger(__name__)
+
+ALPHA_LEVELS = np.geomspace(0.02, 1.0, 29)
+"""Every training roughness (even levels) and test roughness (odd levels) of the search space."""
+PATTERNS = ("5x5x7", "3x3x5", "2x2x2", "random-12.5", "random-3.7")
+PAPER_MSE = {"dense": (0.0004, None), "5x5x7": (0.0010, 0.0004), "3x3x5": (0.0060, 0.0005),
+             "2x2x2": (0.1001, 0.0005), "random-12.5": (0.0007, 0.0004),
+             "random-3.7": (0.0029, 0.0004)}
+"""The paper's total render MSE per labeled set: (without, with self-augmentation)."""
+
+
+@dataclass(frozen=True)
+class ValidationConfig:
+    probes: str
+    out: str
+    size: int = 128
+    """Sphere image side (px); the authors' code uses 128."""
+    lightings: int = 450
+    """Fixed lightings the labeled BRDFs are seen under (the paper: 450)."""
+    labeled_iterations: int = 20000
+    augmented_iterations: int = 20000
+    batch_size: int = 64
+    width: int = 16
+    levels: int = 5
+    hidden: int = 1024
+    alpha_levels: int = len(ALPHA_LEVELS)
+    """Roughness levels of the sphere tables, log-uniform in [0.02, 1]; 29 holds the search
+    space exactly, fewer interpolate it (the toy configuration)."""
+    seed: int = 0
+    device: str = "cpu"
+
+
+CONFIGURATIONS = {
+    "full": {},
+    "small": {"size": 32, "lightings": 24, "labeled_iterations": 2000,
+              "augmented_iterations": 2000, "batch_size": 32, "width": 8, "levels": 3,
+              "hidden": 128},
+    "toy": {"size": 16, "lightings": 4, "labeled_iterations": 5, "augmented_iterations": 5,
+            "batch_size": 8, "width": 4, "levels": 2, "hidden": 16, "alpha_levels": 2},
+}
+"""``full``: the paper's sizes (for a GPU). ``small``: the same search space with smaller
+images and network, fewer lightings and iterations, for a CPU. ``toy``: seconds, for tests."""
+
+
+class SphereRenderer:
+    """Auto-exposed monochrome sphere images (B, 1, S, S) of homogeneous BRDFs under a fixed
+    set of lightings.
+
+    A sphere's radiance is ``diffuse * D_k + specular * S_k(alpha)`` for lighting k, and all
+    spheres share their normals, so D_k and S_k are rendered once with the torch renderer:
+    S_k at ALPHA_LEVELS, which hold every training and test roughness of the search space
+    exactly (other roughnesses, predicted ones, are interpolated linearly in log alpha). The
+    toy configuration tabulates fewer levels and interpolates everything.
+    """
+
+    def __init__(self, probe_files, size, lightings, device, alpha_levels=None):
+        self.alpha_levels = ALPHA_LEVELS if alpha_levels is None else np.asarray(alpha_levels)
+        self.log_levels = torch.as_tensor(np.log(self.alpha_levels), dtype=torch.float32)
+        radiances = [load_probe(path).radiance for path in probe_files]
+        gray = [np.repeat(r @ REC709_LUMINANCE, 3).reshape(r.shape) for r in radiances]
+        probes = ProbeBank(gray, device=device)
+        normal, self.mask = sphere_normals(size, device=device)
+        count = len(lightings)
+        normal = normal.expand(count, 3, size, size)
+        probe_index = torch.as_tensor(lightings[:, 0], device=device).long()
+        rotation = torch.as_tensor(lightings[:, 1], dtype=torch.float32, device=device)
+        ones = torch.ones(count, 3, device=device)
+        self.diffuse = render(torch.ones(count, 3, size, size, device=device), normal,
+                              ones * 0, ones[:, 0], probes, probe_index, rotation)[:, :1]
+        self.specular = torch.stack([
+            render(torch.zeros(count, 3, size, size, device=device), normal, ones,
+                   ones[:, 0] * float(alpha), probes, probe_index, rotation)[:, :1]
+            for alpha in self.alpha_levels])  # (levels, K, 1, S, S)
+
+    def __call__(self, brdfs, lighting_index):
+        """``brdfs`` (B, 3) diffuse, specular, alpha; ``lighting_index`` (B,) into the set."""
+        brdfs = torch.as_tensor(brdfs, dtype=torch.float32, device=self.mask.device)
+        k = torch.as_tensor(lighting_index, device=self.mask.device).long()
+        log_alpha = torch.log(brdfs[:, 2]).clamp(float(self.log_levels[0]),
+                                                 float(self.log_levels[-1]))
+        lower = (torch.searchsorted(self.log_levels, log_alpha, right=True) - 1).clamp(
+            0, len(self.log_levels) - 2)
+        weight = ((log_alpha - self.log_levels[lower])
+                  / (self.log_levels[lower + 1] - self.log_levels[lower]))[:, None, None, None]
+        glossy = (1 - weight) * self.specular[lower, k] + weight * self.specular[lower + 1, k]
+        hdr = brdfs[:, 0, None, None, None] * self.diffuse[k] + brdfs[:, 1, None, None, None] \
+            * glossy
+        return expose((hdr * self.mask).expand(-1, 3, -1, -1))[:, :1]
+
+
+def from_targets(values):
+    """(N, 2) predicted log(d / s), log(alpha) -> (N, 3) BRDFs with d + s = 1, clamped to the
+    search space's range of ratios and roughnesses."""
+    ratio_limit = np.log(brdf_space.DIFFUSE[-1] / brdf_space.SPECULAR[0])
+    ratio = np.exp(np.clip(values[:, 0], -ratio_limit, ratio_limit))
+    alpha = np.exp(np.clip(values[:, 1], np.log(brdf_space.ROUGHNESS[0]), 0.0))
+    return np.stack([ratio / (1 + ratio), 1 / (1 + ratio), alpha], -1)
+
+
+def random_lightings(rng, count, probes):
+    """(count, 2) lightings: probe index, rotation in degrees."""
+    return np.stack([rng.integers(probes, size=count), rng.uniform(0, 360, count)], -1)
+
+
+def train_run(cfg, renderer, pattern, self_augment):
+    """Train one BRDF-net; returns (net, per-iteration losses)."""
+    rng = np.random.default_rng([cfg.seed, len(pattern), int(self_augment)])
+    torch.manual_seed(cfg.seed)
+    brdfs = brdf_space.training_brdfs()
+    mask = brdf_space.labeled_mask(pattern, cfg.seed)
+    labeled, unlabeled = brdfs[mask], brdfs[~mask]
+    unlabeled_lightings = np.random.default_rng([cfg.seed, 1]).integers(cfg.lightings,
+                                                                        size=len(unlabeled))
+    network = NetworkConfig(input_size=cfg.size, width=cfg.width, max_width=8 * cfg.width,
+                            levels=cfg.levels, hidden=cfg.hidden)
+    net = HomogeneousNet(network, in_channels=1, outputs=2).to(cfg.device)
+    optimizer, scheduler = make_optimizer(net.parameters(), OptimizerConfig())
+    losses = []
+    kinds = ["labeled"] * cfg.labeled_iterations
+    kinds += (["self-augmented", "labeled"] if self_augment and len(unlabeled) else
+              ["labeled"]) * cfg.augmented_iterations
+    for kind in kinds:
+        if kind == "labeled":
+            chosen = labeled[rng.integers(len(labeled), size=cfg.batch_size)]
+        else:
+            index = rng.integers(len(unlabeled), size=cfg.batch_size)
+            net.eval()
+            with torch.no_grad():
+                photos = renderer(unlabeled[index], unlabeled_lightings[index])
+                chosen = from_targets(net(photos).cpu().numpy())
+            net.train()
+        images = renderer(chosen, rng.integers(cfg.lightings, size=cfg.batch_size))
+        target = torch.as_tensor(brdf_space.targets(chosen), dtype=torch.float32,
+                                 device=cfg.device)
+        loss = torch.mean((net(images) - target) ** 2)
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        optimizer.step()
+        scheduler.step()
+        losses.append((kind, loss.item()))
+    return net, losses
+
+
+def evaluate(cfg, renderer, net):
+    """Per test BRDF: render MSE and parameter MSE, each (N,)."""
+    tests = brdf_space.test_brdfs()
+    lightings = np.random.default_rng([cfg.seed, 2]).integers(cfg.lightings, size=len(tests))
+    render_errors, parameter_errors = [], []
+    net.eval()
+    with torch.no_grad():
+        for start in range(0, len(tests), cfg.batch_size):
+            part = slice(start, start + cfg.batch_size)
+            images = renderer(tests[part], lightings[part])
+            predicted = net(images).cpu().numpy()
+            estimate = renderer(from_targets(predicted), lightings[part])
+            render_errors.append(((estimate - images) ** 2).mean((1, 2, 3)).cpu().numpy())
+            parameter_errors.append(((predicted - brdf_space.targets(tests[part])) ** 2).mean(1))
+    return np.concatenate(render_errors), np.concatenate(parameter_errors)
+
+
+def heat_map(errors):
+    """(9, 14) mean error over diffuse x roughness, integrated (averaged) over specular."""
+    return errors.reshape(9, 9, 14).mean(1)
+
+
+def run(cfg, patterns=PATTERNS):
+    """Every run of the protocol; writes the table (CSV, Markdown), heat maps and JSON."""
+    out = Path(cfg.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / "config.json", dataclasses.asdict(cfg))
+    probe_files = find_probes(cfg.probes)
+    start = time.perf_counter()
+    renderer = SphereRenderer(probe_files, cfg.size, random_lightings(
+        np.random.default_rng(cfg.seed), cfg.lightings, len(probe_files)), cfg.device,
+        np.geomspace(0.02, 1.0, cfg.alpha_levels))
+    log.info("sphere tables for %d lightings in %.0f s", cfg.lightings,
+             time.perf_counter() - start)
+    results = {}
+    for pattern in ("dense",) + tuple(patterns):
+        for self_augment in ((False,) if pattern == "dense" else (False, True)):
+            start = time.perf_counter()
+            net, losses = train_run(cfg, renderer, pattern, self_augment)
+            render_errors, parameter_errors = evaluate(cfg, renderer, net)
+            key = f"{pattern}{' SA' if self_augment else ''}"
+            results[key] = {"pattern": pattern, "self_augmented": self_augment,
+                            "labeled": int(brdf_space.labeled_mask(pattern, cfg.seed).sum()),
+                            "render_mse": float(render_errors.mean()),
+                            "parameter_mse": float(parameter_errors.mean()),
+                            "heat_map": heat_map(render_errors).tolist(),
+                            "seconds": round(time.perf_counter() - start, 1)}
+            log.info("%s: render MSE %.5f, parameter MSE %.4f (%.0f s)", key,
+                     results[key]["render_mse"], results[key]["parameter_mse"],
+                     results[key]["seconds"])
+    write_json(out / "results.json", results)
+    _write_tables(out, results)
+    _plot_heat_maps(out / "heat_maps.png", results, cfg.seed)
+    return results
+
+
+def _write_tables(out, results):
+    rows = []
+    for pattern in dict.fromkeys(r["pattern"] for r in results.values()):
+        without = results[pattern]
+        with_sa = results.get(f"{pattern} SA")
+        paper = PAPER_MSE.get(pattern, (None, None))
+        rows.append({"labeled set": pattern, "labeled BRDFs": without["labeled"],
+                     "render MSE": f"{without['render_mse']:.5f}",
+                     "render MSE with SA": f"{with_sa['render_mse']:.5f}" if with_sa else "",
+                     "paper": "" if paper[0] is None else f"{paper[0]:.4f}",
+                     "paper with SA": "" if paper[1] is None else f"{paper[1]:.4f}"})
+    with atomic_path(out / "table.csv") as tmp:
+        with open(tmp, "w", newline="") as file:
+            writer = csv.DictWriter(file, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+    lines = ["| " + " | ".join(rows[0]) + " |", "|" + " --- |" * len(rows[0])]
+    lines += ["| " + " | ".join(str(v) for v in row.values()) + " |" for row in rows]
+    with atomic_path(out / "table.md") as tmp:
+        tmp.write_text("\n".join(lines) + "\n")
+
+
+def _plot_heat_maps(path, results, seed):
+    """One column per labeled set: its sampling pattern, the error without and with SA."""
+    patterns = list(dict.fromkeys(r["pattern"] for r in results.values()))
+    figure, axes = plt.subplots(3, len(patterns), figsize=(2.6 * len(patterns), 7.5),
+                                squeeze=False)
+    top = max(max(map(max, r["heat_map"])) for r in results.values())
+    for column, pattern in enumerate(patterns):
+        mask = brdf_space.labeled_mask(pattern, seed).reshape(10, 10, 15).sum(1)
+        axes[0, column].imshow(mask, cmap="Greys", origin="lower", aspect="auto")
+        axes[0, column].set_title(f"{pattern}: labeled", fontsize=9)
+        for row, key in ((1, pattern), (2, f"{pattern} SA")):
+            axis = axes[row, column]
+            if key in results:
+                image = axis.imshow(np.asarray(results[key]["heat_map"]), cmap="inferno",
+                                    origin="lower", aspect="auto", vmin=0, vmax=top)
+                axis.set_title(f"{'SA' if row == 2 else 'no SA'}: "
+                               f"{results[key]['render_mse']:.4f}", fontsize=9)
+            else:
+                axis.axis("off")
+    for axis in axes.ravel():
+        axis.set_xlabel("roughness index", fontsize=7)
+        axis.set_ylabel("diffuse index", fontsize=7)
+        axis.tick_params(labelsize=6)
+    figure.colorbar(image, ax=axes[1:].ravel().tolist(), label="render MSE (mean over specular)")
+    with atomic_path(path) as tmp:
+        figure.savefig(tmp, format="png", dpi=100)
+    plt.close(figure)
+
+
+@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.option("--probes", required=True, type=click.Path(), help="Folder of HDR probes.")
+@click.option("--out", required=True, type=click.Path(), help="Output folder.")
+@click.option("--config", "configuration", type=click.Choice(list(CONFIGURATIONS)),
+              default="full", show_default=True, help="Sizes: full (GPU), small (CPU), toy.")
+@click.option("--patterns", default=",".join(PATTERNS), show_default=True,
+              help="Comma-separated labeled sets besides dense.")
+@click.option("--seed", default=0, show_default=True)
+@click.option("--device", default="cpu", show_default=True)
+def main(probes, out, configuration, patterns, seed, device):
+    """Validate self-augmentation on BRDF-net, as in the paper."""
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
+    cfg = ValidationConfig(probes=probes, out=out, seed=seed, device=device,
+                           **CONFIGURATIONS[configuration])
+    click.echo(json.dumps(dataclasses.asdict(cfg), indent=2))
+    try:
+        results = run(cfg, tuple(p for p in patterns.split(",") if p))
+    except (InputError, ValueError) as error:
+        raise click.ClickException(str(error)) from None
+    click.echo((Path(out) / "table.md").read_text())
+    return results
+
+
+if __name__ == "__main__":
+    main()
