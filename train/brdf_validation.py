@@ -58,17 +58,24 @@ PAPER_MSE = {"dense": (0.0004, None), "5x5x7": (0.0010, 0.0004), "3x3x5": (0.006
 @dataclass(frozen=True)
 class ValidationConfig:
     probes: str
+    """Folder of HDR probes (reduced to luminance)."""
     out: str
+    """Output folder: config.json, results.json, table.csv, table.md, heat_maps.png."""
     size: int = 128
     """Sphere image side (px); the authors' code uses 128."""
     lightings: int = 450
     """Fixed lightings the labeled BRDFs are seen under (the paper: 450)."""
     labeled_iterations: int = 20000
+    """Minibatches of labeled data before the second phase."""
     augmented_iterations: int = 20000
+    """Second phase: labeled minibatches, each after a self-augmented one when augmenting."""
     batch_size: int = 64
     width: int = 16
+    """BRDF-net: channels of the first analysis block (doubling per level, up to 8x)."""
     levels: int = 5
+    """BRDF-net: analysis blocks."""
     hidden: int = 1024
+    """BRDF-net: hidden units of the fully connected synthesis."""
     alpha_levels: int = len(ALPHA_LEVELS)
     """Roughness levels of the sphere tables, log-uniform in [0.02, 1]; 29 holds the search
     space exactly, fewer interpolate it (the toy configuration)."""
