@@ -32,6 +32,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.colors import LogNorm  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
@@ -250,15 +251,22 @@ def run(cfg, patterns=PATTERNS):
     return results
 
 
+def _patterns(results):
+    """The labeled sets of ``results``: dense first, then in PATTERNS order, then others."""
+    order = ("dense",) + PATTERNS
+    present = dict.fromkeys(r["pattern"] for r in results.values())
+    return sorted(present, key=lambda p: order.index(p) if p in order else len(order))
+
+
 def _write_tables(out, results):
     rows = []
-    for pattern in dict.fromkeys(r["pattern"] for r in results.values()):
+    for pattern in _patterns(results):
         without = results[pattern]
         with_sa = results.get(f"{pattern} SA")
         paper = PAPER_MSE.get(pattern, (None, None))
         rows.append({"labeled set": pattern, "labeled BRDFs": without["labeled"],
-                     "render MSE": f"{without['render_mse']:.5f}",
-                     "render MSE with SA": f"{with_sa['render_mse']:.5f}" if with_sa else "",
+                     "render MSE": f"{without['render_mse']:.2e}",
+                     "render MSE with SA": f"{with_sa['render_mse']:.2e}" if with_sa else "",
                      "paper": "" if paper[0] is None else f"{paper[0]:.4f}",
                      "paper with SA": "" if paper[1] is None else f"{paper[1]:.4f}"})
     with atomic_path(out / "table.csv") as tmp:
@@ -273,29 +281,33 @@ def _write_tables(out, results):
 
 
 def _plot_heat_maps(path, results, seed):
-    """One column per labeled set: its sampling pattern, the error without and with SA."""
-    patterns = list(dict.fromkeys(r["pattern"] for r in results.values()))
-    figure, axes = plt.subplots(3, len(patterns), figsize=(2.6 * len(patterns), 7.5),
-                                squeeze=False)
-    top = max(max(map(max, r["heat_map"])) for r in results.values())
+    """One column per labeled set: its sampling pattern (labeled count over specular, per
+    diffuse x roughness), the error heat map without and with SA (one log color scale)."""
+    patterns = _patterns(results)
+    figure, axes = plt.subplots(3, len(patterns), figsize=(2.8 * len(patterns), 9),
+                                squeeze=False, layout="constrained")
+    maps = [np.asarray(r["heat_map"]) for r in results.values()]
+    scale = LogNorm(vmin=min(m[m > 0].min() for m in maps), vmax=max(m.max() for m in maps))
     for column, pattern in enumerate(patterns):
         mask = brdf_space.labeled_mask(pattern, seed).reshape(10, 10, 15).sum(1)
-        axes[0, column].imshow(mask, cmap="Greys", origin="lower", aspect="auto")
+        axes[0, column].imshow(mask, cmap="Greys", origin="lower", aspect="auto", vmin=0,
+                               vmax=len(brdf_space.SPECULAR))
         axes[0, column].set_title(f"{pattern}: labeled", fontsize=9)
         for row, key in ((1, pattern), (2, f"{pattern} SA")):
             axis = axes[row, column]
             if key in results:
                 image = axis.imshow(np.asarray(results[key]["heat_map"]), cmap="inferno",
-                                    origin="lower", aspect="auto", vmin=0, vmax=top)
+                                    origin="lower", aspect="auto", norm=scale)
                 axis.set_title(f"{'SA' if row == 2 else 'no SA'}: "
-                               f"{results[key]['render_mse']:.4f}", fontsize=9)
+                               f"{results[key]['render_mse']:.1e}", fontsize=9)
             else:
                 axis.axis("off")
     for axis in axes.ravel():
         axis.set_xlabel("roughness index", fontsize=7)
         axis.set_ylabel("diffuse index", fontsize=7)
         axis.tick_params(labelsize=6)
-    figure.colorbar(image, ax=axes[1:].ravel().tolist(), label="render MSE (mean over specular)")
+    figure.colorbar(image, ax=axes[1:].ravel().tolist(),
+                    label="render MSE (mean over specular), log scale")
     with atomic_path(path) as tmp:
         figure.savefig(tmp, format="png", dpi=100)
     plt.close(figure)
