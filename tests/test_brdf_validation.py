@@ -11,7 +11,8 @@ from render.probes import find_probes, load_probe
 from render.torch_renderer import ProbeBank, expose, render, sphere_normals
 from tests.conftest import BUNDLED_PROBES
 from train import brdf_space
-from train.brdf_validation import SphereRenderer, from_targets, main
+from train.brdf_validation import (CONFIGURATIONS, SphereRenderer, ValidationConfig,
+                                   from_targets, main, make_renderer, ratio_table)
 
 
 def test_search_space_and_patterns():
@@ -62,3 +63,18 @@ def test_pipeline_end_to_end_at_toy_size(tmp_path):
         assert (tmp_path / "val" / name).is_file(), name
     table = (tmp_path / "val" / "table.md").read_text()
     assert "| 2x2x2 | 8 |" in table and "| dense | 1500 |" in table
+
+
+def test_ratio_table_at_toy_size(tmp_path):
+    labeled, unlabeled = brdf_space.random_split(20, 50, seed=3)
+    assert labeled.sum() == 300 and unlabeled.sum() == 750 and not (labeled & unlabeled).any()
+    with pytest.raises(ValueError, match="more than 100"):
+        brdf_space.random_split(60, 50)
+    cfg = ValidationConfig(probes=str(BUNDLED_PROBES), out=str(tmp_path),
+                           **CONFIGURATIONS["toy"])
+    table = ratio_table(cfg, make_renderer(cfg), (50, 100), (20, 50))
+    assert list(table[50]) == ["no SA", 20, 50] and list(table[100]) == ["no SA"]
+    assert all(np.isfinite(v) and v >= 0 for row in table.values() for v in row.values())
+    text = (tmp_path / "ratio_table.md").read_text()
+    assert "| percent labeled | no SA | 20% unlabeled | 50% unlabeled |" in text
+    assert (tmp_path / "ratio_table.csv").is_file()

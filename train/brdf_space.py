@@ -7,7 +7,8 @@ Homogeneous Ward BRDFs (diffuse albedo, specular albedo, roughness alpha):
   roughness mid-points are geometric means.
 Labeled subsets: ``dense`` (all), regular ``AxBxC`` patterns (A diffuse, B specular and C
 roughness values, evenly spaced indices including both ends), or ``random-P`` (P percent of
-the grid, seeded). The unlabeled set is the rest of the grid. BRDF-net predicts
+the grid, seeded). The unlabeled set is the rest of the grid, or, for the labeled-unlabeled
+ratio table, a disjoint random subset (``random_split``). BRDF-net predicts
 ``(log(diffuse / specular), log(alpha))``: only the ratio of the albedos is observable.
 """
 
@@ -62,3 +63,18 @@ def labeled_mask(pattern, seed=0):
 def targets(brdfs):
     """(N, 2) BRDF-net targets: log(diffuse / specular), log(alpha)."""
     return np.stack([np.log(brdfs[:, 0] / brdfs[:, 1]), np.log(brdfs[:, 2])], -1)
+
+
+def random_split(labeled_percent, unlabeled_percent, seed=0):
+    """Disjoint random labeled and unlabeled masks over the grid, of the given percentages
+    (the paper's labeled-unlabeled ratio table)."""
+    if labeled_percent + unlabeled_percent > 100:
+        raise ValueError("labeled and unlabeled percentages add up to more than 100")
+    size = len(DIFFUSE) * len(SPECULAR) * len(ROUGHNESS)
+    order = np.random.default_rng(seed).permutation(size)
+    labeled_count = round(labeled_percent / 100 * size)
+    unlabeled_count = round(unlabeled_percent / 100 * size)
+    labeled, unlabeled = np.zeros(size, bool), np.zeros(size, bool)
+    labeled[order[:labeled_count]] = True
+    unlabeled[order[labeled_count:labeled_count + unlabeled_count]] = True
+    return labeled, unlabeled

@@ -24,6 +24,7 @@ import dataclasses
 import json
 import logging
 import time
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -54,6 +55,9 @@ PAPER_MSE = {"dense": (0.0004, None), "5x5x7": (0.0010, 0.0004), "3x3x5": (0.006
              "2x2x2": (0.1001, 0.0005), "random-12.5": (0.0007, 0.0004),
              "random-3.7": (0.0029, 0.0004)}
 """The paper's total render MSE per labeled set: (without, with self-augmentation)."""
+RATIO_LABELED = (5, 10, 20, 30, 50, 70, 80, 90, 95, 100)
+RATIO_UNLABELED = (5, 10, 20, 30, 50, 70, 80, 90, 95)
+"""The percentages of the paper's labeled-unlabeled ratio table."""
 
 
 @dataclass(frozen=True)
@@ -156,13 +160,13 @@ def random_lightings(rng, count, probes):
     return np.stack([rng.integers(probes, size=count), rng.uniform(0, 360, count)], -1)
 
 
-def train_run(cfg, renderer, pattern, self_augment):
-    """Train one BRDF-net; returns (net, per-iteration losses)."""
-    rng = np.random.default_rng([cfg.seed, len(pattern), int(self_augment)])
+def train_run(cfg, renderer, labeled_mask, unlabeled_mask, self_augment, name):
+    """Train one BRDF-net on the masked training BRDFs; ``name`` seeds its random stream.
+    Returns (net, per-iteration losses)."""
+    rng = np.random.default_rng([cfg.seed, zlib.crc32(name.encode()), int(self_augment)])
     torch.manual_seed(cfg.seed)
     brdfs = brdf_space.training_brdfs()
-    mask = brdf_space.labeled_mask(pattern, cfg.seed)
-    labeled, unlabeled = brdfs[mask], brdfs[~mask]
+    labeled, unlabeled = brdfs[labeled_mask], brdfs[unlabeled_mask]
     unlabeled_lightings = np.random.default_rng([cfg.seed, 1]).integers(cfg.lightings,
                                                                         size=len(unlabeled))
     network = NetworkConfig(input_size=cfg.size, width=cfg.width, max_width=8 * cfg.width,
@@ -217,11 +221,8 @@ def heat_map(errors):
     return errors.reshape(9, 9, 14).mean(1)
 
 
-def run(cfg, patterns=PATTERNS):
-    """Every run of the protocol; writes the table (CSV, Markdown), heat maps and JSON."""
-    out = Path(cfg.out)
-    out.mkdir(parents=True, exist_ok=True)
-    write_json(out / "config.json", dataclasses.asdict(cfg))
+def make_renderer(cfg):
+    """The run's SphereRenderer: its lightings drawn from the seed."""
     probe_files = find_probes(cfg.probes)
     start = time.perf_counter()
     renderer = SphereRenderer(probe_files, cfg.size, random_lightings(
@@ -229,15 +230,58 @@ def run(cfg, patterns=PATTERNS):
         np.geomspace(0.02, 1.0, cfg.alpha_levels))
     log.info("sphere tables for %d lightings in %.0f s", cfg.lightings,
              time.perf_counter() - start)
+    return renderer
+
+
+def ratio_table(cfg, renderer, labeled_percents=RATIO_LABELED, unlabeled_percents=RATIO_UNLABELED):
+    """The paper's labeled-unlabeled ratio table: test render MSE per labeled percentage,
+    without self-augmentation and with each unlabeled percentage that fits beside it. Writes
+    ratio_table.csv and ratio_table.md; returns {labeled: {"no SA" or unlabeled: MSE}}."""
+    table = {}
+    for labeled_percent in labeled_percents:
+        row = {}
+        for unlabeled_percent in (0,) + tuple(u for u in unlabeled_percents
+                                              if labeled_percent + u <= 100):
+            labeled, unlabeled = brdf_space.random_split(labeled_percent, unlabeled_percent,
+                                                         cfg.seed)
+            net, _ = train_run(cfg, renderer, labeled, unlabeled, unlabeled_percent > 0,
+                               f"ratio {labeled_percent} {unlabeled_percent}")
+            mse = float(evaluate(cfg, renderer, net)[0].mean())
+            row["no SA" if unlabeled_percent == 0 else unlabeled_percent] = mse
+            log.info("ratio table: %s%% labeled, %s%% unlabeled: render MSE %.2e",
+                     labeled_percent, unlabeled_percent, mse)
+        table[labeled_percent] = row
+    header = ["percent labeled", "no SA"] + [f"{u}% unlabeled" for u in unlabeled_percents]
+    rows = [[str(p), *(f"{row[k]:.2e}" if k in row else "" for k in ["no SA",
+                                                                      *unlabeled_percents])]
+            for p, row in table.items()]
+    out = Path(cfg.out)
+    with atomic_path(out / "ratio_table.csv") as tmp:
+        with open(tmp, "w", newline="") as file:
+            csv.writer(file).writerows([header, *rows])
+    lines = ["| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    with atomic_path(out / "ratio_table.md") as tmp:
+        tmp.write_text("\n".join(lines) + "\n")
+    return table
+
+
+def run(cfg, patterns=PATTERNS):
+    """Every run of the protocol; writes the table (CSV, Markdown), heat maps and JSON."""
+    out = Path(cfg.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / "config.json", dataclasses.asdict(cfg))
+    renderer = make_renderer(cfg)
     results = {}
     for pattern in ("dense",) + tuple(patterns):
         for self_augment in ((False,) if pattern == "dense" else (False, True)):
             start = time.perf_counter()
-            net, losses = train_run(cfg, renderer, pattern, self_augment)
+            mask = brdf_space.labeled_mask(pattern, cfg.seed)
+            net, _ = train_run(cfg, renderer, mask, ~mask, self_augment, pattern)
             render_errors, parameter_errors = evaluate(cfg, renderer, net)
             key = f"{pattern}{' SA' if self_augment else ''}"
             results[key] = {"pattern": pattern, "self_augmented": self_augment,
-                            "labeled": int(brdf_space.labeled_mask(pattern, cfg.seed).sum()),
+                            "labeled": int(mask.sum()),
                             "render_mse": float(render_errors.mean()),
                             "parameter_mse": float(parameter_errors.mean()),
                             "heat_map": heat_map(render_errors).tolist(),
@@ -248,7 +292,7 @@ def run(cfg, patterns=PATTERNS):
     write_json(out / "results.json", results)
     _write_tables(out, results)
     _plot_heat_maps(out / "heat_maps.png", results, cfg.seed)
-    return results
+    return results, renderer
 
 
 def _patterns(results):
@@ -320,20 +364,24 @@ def _plot_heat_maps(path, results, seed):
               default="full", show_default=True, help="Sizes: full (GPU), small (CPU), toy.")
 @click.option("--patterns", default=",".join(PATTERNS), show_default=True,
               help="Comma-separated labeled sets besides dense.")
+@click.option("--ratio-table", "ratio_table_too", is_flag=True,
+              help="Also the labeled-unlabeled ratio table (55 more runs).")
 @click.option("--seed", default=0, show_default=True)
 @click.option("--device", default="cpu", show_default=True)
-def main(probes, out, configuration, patterns, seed, device):
+def main(probes, out, configuration, patterns, ratio_table_too, seed, device):
     """Validate self-augmentation on BRDF-net, as in the paper."""
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
     cfg = ValidationConfig(probes=probes, out=out, seed=seed, device=device,
                            **CONFIGURATIONS[configuration])
     click.echo(json.dumps(dataclasses.asdict(cfg), indent=2))
     try:
-        results = run(cfg, tuple(p for p in patterns.split(",") if p))
+        _, renderer = run(cfg, tuple(p for p in patterns.split(",") if p))
+        click.echo((Path(out) / "table.md").read_text())
+        if ratio_table_too:
+            ratio_table(cfg, renderer)
+            click.echo((Path(out) / "ratio_table.md").read_text())
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
-    click.echo((Path(out) / "table.md").read_text())
-    return results
 
 
 if __name__ == "__main__":
