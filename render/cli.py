@@ -22,7 +22,15 @@ from render.errors import InputError
 @click.option("--spp", default=1024, show_default=True, help="Samples per pixel.")
 @click.option("--sampler", default="multijitter", show_default=True, help="Mitsuba sampler.")
 @click.option("--seed", default=0, show_default=True, help="Seed of all random choices.")
-@click.option("--workers", default=1, show_default=True, help="Worker processes.")
+@click.option("--workers", default=1, show_default=True,
+              help="Worker processes (with --ray alone: CPUs of the local Ray instance).")
+@click.option("--ray", is_flag=False, flag_value="local", default=None, metavar="[ADDRESS]",
+              help="Render as Ray tasks on the cluster at ADDRESS (auto, HOST:6379, "
+                   "ray://HOST:10001); alone, on a Ray instance started here.")
+@click.option("--ray-chunk", default=4, show_default=True,
+              help="Render tasks (material, probe, rotation) per Ray task.")
+@click.option("--ray-cpus-per-task", default=1, show_default=True,
+              help="CPUs each Ray task reserves (Mitsuba threads).")
 @click.option("--variant", default="llvm_ad_rgb", show_default=True, help="Mitsuba variant.")
 @click.option("--test-materials", default=0.2, show_default=True,
               help="Fraction of materials held out for testing.")

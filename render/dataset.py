@@ -39,7 +39,7 @@ from render.views import random_view
 log = logging.getLogger(__name__)
 CONTACT_SHEET_ROWS = 12
 # Changing these does not change the samples, so a resumed run may use other values.
-RESUMABLE_FIELDS = ("workers", "out")
+RESUMABLE_FIELDS = ("workers", "out", "ray", "ray_chunk", "ray_cpus_per_task")
 
 
 @dataclass(frozen=True)
@@ -65,7 +65,16 @@ class DatasetConfig:
     seed: int = 0
     """Seed of every random choice; the same seed gives the same dataset."""
     workers: int = 1
-    """Worker processes rendering tasks in parallel."""
+    """Worker processes rendering tasks in parallel (with ``ray="local"``: the CPUs of the
+    local Ray instance)."""
+    ray: str | None = None
+    """None: render on this machine. Otherwise render as Ray tasks (render/ray_rendering.py)
+    on the cluster at this address (``auto``, ``HOST:6379``, ``ray://HOST:10001``), or on a
+    Ray instance started on this machine for ``local``."""
+    ray_chunk: int = 4
+    """Tasks (material, probe, rotation) per Ray task."""
+    ray_cpus_per_task: int = 1
+    """CPUs each Ray task reserves, and the Mitsuba threads it renders with."""
     variant: str = "llvm_ad_rgb"
     """Mitsuba variant, e.g. llvm_ad_rgb (CPU) or cuda_ad_rgb (GPU)."""
     test_materials: float = 0.2
@@ -83,7 +92,7 @@ class DatasetConfig:
             raise ValueError("--resolution must be at least 8")
         if self.render_size < self.resolution:
             raise ValueError("--render-size must be at least --resolution")
-        for name in ("rotations", "crops", "spp", "workers"):
+        for name in ("rotations", "crops", "spp", "workers", "ray_chunk", "ray_cpus_per_task"):
             if getattr(self, name) < 1:
                 raise ValueError(f"--{name} must be at least 1")
         if not (0 <= self.test_materials < 1 and 0 <= self.test_probes < 1):
@@ -134,28 +143,35 @@ def task_rng(cfg, task):
 
 
 class TaskRenderer:
-    """Renders tasks in one process, keeping loaded materials and probes."""
+    """Renders tasks in one process, keeping loaded materials and probes.
 
-    def __init__(self, cfg, threads=None):
+    ``inputs``, if given, maps a material folder or probe file to a callable returning the
+    resampled material or the loaded probe (Ray workers fetch them from the object store);
+    otherwise they are read from disk.
+    """
+
+    def __init__(self, cfg, threads=None, inputs=None):
         from render.scene import PlanarSampleRenderer  # imports Mitsuba
 
         self.cfg = cfg
         self.renderer = PlanarSampleRenderer(cfg.variant, cfg.spp, cfg.sampler, threads)
+        self.inputs = inputs
         self._materials, self._probes = {}, {}
 
     def _material(self, folder):
         if folder not in self._materials:
-            self._materials[folder] = resample(load_material(folder), self.cfg.render_size)
+            self._materials[folder] = (self.inputs[folder]() if self.inputs else
+                                       resample(load_material(folder), self.cfg.render_size))
         return self._materials[folder]
 
     def _probe(self, path):
         if path not in self._probes:
-            self._probes[path] = load_probe(path)
+            self._probes[path] = self.inputs[path]() if self.inputs else load_probe(path)
         return self._probes[path]
 
-    def run(self, task):
-        """Render ``task``, write its samples and its marker; returns the sample records."""
-        cfg, out = self.cfg, Path(self.cfg.out)
+    def render(self, task):
+        """Render ``task``; returns its TaskResult (nothing is written)."""
+        cfg = self.cfg
         svbrdf, probe = self._material(task.material), self._probe(task.probe)
         rng = task_rng(cfg, task)
         rotation_deg = float(rng.uniform(0, 360))
@@ -167,7 +183,7 @@ class TaskRenderer:
         render_seed = int(rng.integers(1 << 31))
         hdr = self.renderer.render(svbrdf, probe, rotation_deg, view, render_seed)
 
-        records = []
+        records, arrays = [], []
         for index, (top, left, turns) in enumerate(crops):
             window = np.s_[top:top + cfg.resolution, left:left + cfg.resolution]
             image, albedo, normal = rotate_quarter_turns(
@@ -186,14 +202,35 @@ class TaskRenderer:
                 "sampler": cfg.sampler, "variant": cfg.variant,
             }
             record["file"] = f"samples/{record['id']}.npz"
-            write_npz(out / record["file"], image=exposed.astype(np.float16),
-                      albedo=albedo_rel.astype(np.float16), normal=normal.astype(np.float16),
-                      log_specular=log_specular.astype(np.float32),
-                      log_roughness=np.array([np.log(svbrdf.roughness)], np.float32),
-                      provenance=np.array(json.dumps(record)))
             records.append(record)
-        write_json(out / "tasks" / f"{task.name}.json", {"task": task.name, "samples": records})
-        return records
+            arrays.append({"image": exposed.astype(np.float16),
+                           "albedo": albedo_rel.astype(np.float16),
+                           "normal": normal.astype(np.float16),
+                           "log_specular": log_specular.astype(np.float32),
+                           "log_roughness": np.array([np.log(svbrdf.roughness)], np.float32),
+                           "provenance": np.array(json.dumps(record))})
+        return TaskResult(task.name, records, arrays)
+
+
+@dataclass(frozen=True)
+class TaskResult:
+    """What one task rendered, ready to be written by ``write_task`` (in whichever process
+    started the run, so that workers need no access to the output folder)."""
+    name: str
+    records: list
+    """The samples' provenance records, in crop order."""
+    arrays: list
+    """Per sample, the arrays of its .npz file."""
+
+
+def write_task(out, result):
+    """Write a task's samples, then its marker (so a marker means the task is complete);
+    returns the number of samples."""
+    for record, arrays in zip(result.records, result.arrays):
+        write_npz(Path(out) / record["file"], **arrays)
+    write_json(Path(out) / "tasks" / f"{result.name}.json",
+               {"task": result.name, "samples": result.records})
+    return len(result.records)
 
 
 def validate_inputs(cfg):
@@ -228,8 +265,8 @@ def _init_worker(cfg, threads):
     _worker = TaskRenderer(cfg, threads)
 
 
-def _run_in_worker(task):
-    return _worker.run(task)
+def _render_in_worker(task):
+    return _worker.render(task)
 
 
 def run(cfg):
@@ -249,17 +286,26 @@ def run(cfg):
              len(tasks) - len(pending))
     with tqdm(total=len(tasks) * cfg.crops, initial=(len(tasks) - len(pending)) * cfg.crops,
               unit="sample", desc="render-dataset") as progress:
-        if cfg.workers == 1:
-            renderer = TaskRenderer(cfg)
-            for task in pending:
-                progress.update(len(renderer.run(task)))
-        else:
-            threads = max(1, (os.cpu_count() or 1) // cfg.workers)
-            context = multiprocessing.get_context("spawn")
-            with context.Pool(cfg.workers, _init_worker, (cfg, threads)) as pool:
-                for records in pool.imap_unordered(_run_in_worker, pending):
-                    progress.update(len(records))
+        for result in render_tasks(cfg, pending):
+            progress.update(write_task(out, result))
     return finish(cfg, tasks)
+
+
+def render_tasks(cfg, tasks):
+    """Yield the TaskResult of every task, in any order: in this process (one worker), in a
+    pool of ``workers`` local processes, or as Ray tasks when ``cfg.ray`` is set."""
+    if cfg.ray is not None:
+        from render.ray_rendering import render_on_ray  # imports Ray
+
+        yield from render_on_ray(cfg, tasks)
+    elif cfg.workers == 1:
+        renderer = TaskRenderer(cfg)
+        yield from map(renderer.render, tasks)
+    else:
+        threads = max(1, (os.cpu_count() or 1) // cfg.workers)
+        context = multiprocessing.get_context("spawn")
+        with context.Pool(cfg.workers, _init_worker, (cfg, threads)) as pool:
+            yield from pool.imap_unordered(_render_in_worker, tasks)
 
 
 def finish(cfg, tasks):

@@ -35,6 +35,13 @@ def sample_arrays(folder):
     return arrays
 
 
+def dataset_files(folder):
+    """{relative path: bytes} of every sample and task marker of a dataset folder."""
+    folder = Path(folder)
+    return {str(path.relative_to(folder)): path.read_bytes()
+            for path in sorted([*folder.glob("samples/*.npz"), *folder.glob("tasks/*.json")])}
+
+
 def assert_same_samples(a, b):
     assert a.keys() == b.keys()
     for name in a:
@@ -76,7 +83,25 @@ def test_same_seed_same_dataset_whatever_the_workers(reference_dataset, tmp_path
     again = render(tmp_path / "ds", "--test-materials", "0.34", "--test-probes", "0.34",
                    "--workers", "2")
     assert again["samples"] == index["samples"]
-    assert_same_samples(sample_arrays(out), sample_arrays(tmp_path / "ds"))
+    assert dataset_files(out) == dataset_files(tmp_path / "ds")
+
+
+def test_a_local_ray_cluster_renders_byte_identical_files(reference_dataset, tmp_path):
+    """render-dataset --ray on a Ray instance of 2 worker CPUs, chunks of 3 tasks, against the
+    one-process reference: same index, same bytes in every sample and task marker."""
+    out, index = reference_dataset
+    command = [sys.executable, "-m", "render.cli", "--probes", str(BUNDLED_PROBES), "--svbrdfs",
+               str(BUNDLED_MATERIALS), "--out", str(tmp_path / "ds"), *TINY,
+               "--test-materials", "0.34", "--test-probes", "0.34", "--ray", "--workers", "2",
+               "--ray-chunk", "3"]
+    result = subprocess.run(command, cwd=REPO, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "Ray cluster: 2.0 CPUs" in result.stderr
+    again = json.loads((tmp_path / "ds" / "index.json").read_text())
+    assert again["samples"] == index["samples"]
+    files = dataset_files(tmp_path / "ds")
+    assert len(files) == index["count"] + index["count"] // 2  # 2 crops per task marker
+    assert files == dataset_files(out)
 
 
 def test_other_seed_other_dataset(reference_dataset, tmp_path):

@@ -18,20 +18,28 @@ from render.views import random_view
 from train.losses import clamp_to_valid
 
 
-def self_augmented_batch(net, photos, probes, rng, log_specular_range, max_view_angle=0.0):
+def random_lightings(rng, count, probe_count, max_view_angle=0.0):
+    """``count`` random lightings and views drawn from ``rng`` (numpy Generator): probe indices
+    (count,), rotations in degrees about +z (count,) and unit view directions (count, 3)."""
+    probe_index = rng.integers(probe_count, size=count)
+    rotation_deg = rng.uniform(0.0, 360.0, size=count)
+    view = np.stack([random_view(rng, max_view_angle) for _ in range(count)])
+    return probe_index, rotation_deg, view
+
+
+def self_augmented_batch(net, photos, probes, lightings, log_specular_range):
     """A labeled minibatch (image, albedo, normal, log_specular, log_roughness) from ``photos``
-    (B, 3, S, S); ``rng`` (numpy Generator) draws the probes, rotations and views."""
+    (B, 3, S, S), rendered under ``lightings`` (random_lightings of B)."""
     training = net.training
     net.eval()
     with torch.no_grad():
         provisional = clamp_to_valid(net(photos), log_specular_range)
     net.train(training)
 
-    batch, dtype = photos.shape[0], photos.dtype
-    probe_index = torch.as_tensor(rng.integers(len(probes), size=batch))
-    rotation = torch.as_tensor(rng.uniform(0.0, 360.0, size=batch), dtype=dtype)
-    view = torch.as_tensor(np.stack([random_view(rng, max_view_angle) for _ in range(batch)]),
-                           dtype=dtype)
+    dtype = photos.dtype
+    probe_index = torch.as_tensor(lightings[0])
+    rotation = torch.as_tensor(lightings[1], dtype=dtype)
+    view = torch.as_tensor(lightings[2], dtype=dtype)
     albedo = provisional["albedo"]
     hdr = render(albedo, provisional["normal"], torch.exp(provisional["log_specular"]),
                  torch.exp(provisional["log_roughness"]), probes, probe_index, rotation, view)

@@ -15,6 +15,10 @@ baseline). Into ``out`` it writes:
 
 It logs a line every ``log_every`` steps (losses, ms per step, time left) and evaluates on the
 test split (train.evaluation) at the end of every epoch.
+
+Under ``torchrun`` the processes train one network data-parallel (train.distributed): each
+takes its shard of every global minibatch of ``batch_size``, and only rank 0 writes and
+evaluates.
 """
 
 import dataclasses
@@ -37,6 +41,7 @@ from render.atomic_files import atomic_path, write_json  # noqa: E402
 from render.errors import InputError  # noqa: E402
 from render.probes import find_probes, load_probe  # noqa: E402
 from render.torch_renderer import ProbeBank  # noqa: E402
+from train import distributed  # noqa: E402
 from train.checkpoints import checkpoint_files, load_checkpoint, save_checkpoint  # noqa: E402
 from train.evaluation import evaluate, stack_items  # noqa: E402
 from train.labeled_dataset import LabeledDataset  # noqa: E402
@@ -44,7 +49,7 @@ from train.losses import losses  # noqa: E402
 from train.networks import NetworkConfig, SVBRDFNet  # noqa: E402
 from train.optimization import OptimizerConfig, make_optimizer  # noqa: E402
 from train.schedule import SELF_AUGMENTED, Schedule, labeled_batch_indices  # noqa: E402
-from train.self_augmentation import self_augmented_batch  # noqa: E402
+from train.self_augmentation import random_lightings, self_augmented_batch  # noqa: E402
 from train.unlabeled_data import UnlabeledImages  # noqa: E402
 from train.unlabeled_selection import select_matching  # noqa: E402
 
@@ -64,6 +69,7 @@ class TrainConfig:
     network: NetworkConfig = field(default_factory=NetworkConfig)
     optimizer: OptimizerConfig = field(default_factory=OptimizerConfig)
     batch_size: int = 16
+    """Samples per minibatch (the global minibatch, split among the processes under torchrun)."""
     labeled_epochs: int = 10
     """Epochs of labeled minibatches only (the paper: 10)."""
     self_augmented_epochs: int = 10
@@ -90,11 +96,14 @@ def config_from_dict(values):
 
 
 class Run:
-    """The state of one training run: data, network, optimizer, history."""
+    """The state of one training run (in one process): data, network, optimizer, history."""
 
-    def __init__(self, cfg):
-        self.cfg = cfg
-        self.device = torch.device(cfg.device)
+    def __init__(self, cfg, place=distributed.Distributed()):
+        self.cfg, self.place = cfg, place
+        self.device = place.device(cfg.device)
+        if cfg.batch_size % place.world_size:
+            raise ValueError(f"--batch-size {cfg.batch_size} is not divisible by the "
+                             f"{place.world_size} processes")
         self.train_set = LabeledDataset(cfg.dataset, "train")
         self.test_set = LabeledDataset(cfg.dataset, "test")
         if len(self.train_set) < cfg.batch_size:
@@ -118,6 +127,10 @@ class Run:
 
         torch.manual_seed(cfg.seed)
         self.net = SVBRDFNet(cfg.network).to(self.device)
+        if place.enabled:
+            distributed.synchronize_batch_norm(self.net)  # before the optimizer holds its weights
+        self.model = self.net
+        """What training steps call: the network, or its DistributedDataParallel wrapper."""
         self.optimizer, self.scheduler = make_optimizer(self.net.parameters(), cfg.optimizer)
         self.step, self.history = 0, {"train": [], "test": []}
 
@@ -137,6 +150,12 @@ class Run:
                  len(chosen), len(images))
         return images, chosen
 
+    def parallelize(self):
+        """Under torchrun: wrap the network for data-parallel steps (after any resume: the
+        wrapper starts from rank 0's weights)."""
+        if self.place.enabled:
+            self.model = torch.nn.parallel.DistributedDataParallel(self.net)
+
     def state(self):
         return {"config": dataclasses.asdict(self.cfg), "model": self.net.state_dict(),
                 "optimizer": self.optimizer.state_dict(),
@@ -153,47 +172,67 @@ class Run:
         log.info("resumed from %s at step %d", path, self.step)
 
     def minibatch(self, index):
-        """The (image, labels) minibatch of optimizer step ``index``."""
+        """This process's shard of the (image, labels) minibatch of optimizer step ``index``.
+
+        The global minibatch and its random choices are drawn from (seed, step) alone; each
+        process then loads (and, self-augmenting, renders) only its shard."""
         step = self.schedule.step(index)
         rng = np.random.default_rng([self.cfg.seed, index])
+        shard = self.place.shard
         if step.kind == SELF_AUGMENTED:
             chosen = rng.choice(self.unlabeled_indices, self.cfg.batch_size,
                                 replace=len(self.unlabeled_indices) < self.cfg.batch_size)
-            photos = torch.as_tensor(np.stack([self.unlabeled.image(i) for i in chosen]))
-            return self_augmented_batch(self.net, photos.to(self.device), self.probes, rng,
-                                        self.log_specular_range, self.cfg.max_view_angle)
+            lightings = random_lightings(rng, self.cfg.batch_size, len(self.probes),
+                                         self.cfg.max_view_angle)
+            photos = torch.as_tensor(np.stack([self.unlabeled.image(i) for i in shard(chosen)]))
+            return self_augmented_batch(self.net, photos.to(self.device), self.probes,
+                                        [shard(values) for values in lightings],
+                                        self.log_specular_range)
         indices = labeled_batch_indices(self.cfg.seed, step.epoch, step.batch,
                                         self.cfg.batch_size, len(self.train_set))
-        return stack_items([self.train_set[int(i)] for i in indices], self.device)
+        return stack_items([self.train_set[int(i)] for i in shard(indices)], self.device)
 
     def train_step(self, index):
+        """One optimizer step; returns the losses of the global minibatch."""
         batch = self.minibatch(index)
-        self.net.train()
-        terms = losses(self.net(batch["image"]), batch)
+        self.model.train()
+        terms = losses(self.model(batch["image"]), batch)
         self.optimizer.zero_grad(set_to_none=True)
         terms["total"].backward()
         self.optimizer.step()
         self.scheduler.step()
         self.step = index + 1
-        return {name: value.detach().item() for name, value in terms.items()}
+        return self.place.mean({name: value.detach().item() for name, value in terms.items()})
 
 
 def run(cfg):
     """Train (or resume) the run ``cfg``; returns its history."""
+    place = distributed.start(cfg.device)
+    try:
+        return _train(cfg, place)
+    finally:
+        distributed.stop(place)
+
+
+def _train(cfg, place):
     out = Path(cfg.out)
-    run_state = Run(cfg)  # checks the inputs before anything is written
-    _check_config(out, cfg)
+    run_state = Run(cfg, place)  # checks the inputs before anything is written
+    _check_config(out, cfg, write=place.is_main)
     newest = checkpoint_files(out / "checkpoints")
     if newest:
         run_state.resume(newest[-1])
+    run_state.parallelize()
     schedule = run_state.schedule
-    log.info("%d steps of %d to go, %d epochs of %d steps", schedule.total_steps - run_state.step,
-             schedule.total_steps, schedule.epochs, schedule.steps_per_epoch)
-    writer = SummaryWriter(str(out / "tensorboard"))
+    log.info("%d steps of %d to go, %d epochs of %d steps, %d process(es)",
+             schedule.total_steps - run_state.step, schedule.total_steps, schedule.epochs,
+             schedule.steps_per_epoch, place.world_size)
+    writer = SummaryWriter(str(out / "tensorboard")) if place.is_main else None
     interval, interval_start = [], time.perf_counter()
     for index in range(run_state.step, schedule.total_steps):
         step = schedule.step(index)
         terms = run_state.train_step(index)
+        if not place.is_main:
+            continue
         interval.append((step.kind, terms))
         for name, value in terms.items():
             writer.add_scalar(f"train/{step.kind}/{name}", value, index + 1)
@@ -207,18 +246,21 @@ def run(cfg):
             interval_start = time.perf_counter()  # ms per step counts training steps only
         elif (index + 1) % cfg.checkpoint_every == 0:
             save_checkpoint(out / "checkpoints", run_state.state())
-    writer.close()
+    if writer is not None:
+        writer.close()
+    place.barrier()  # every process returns once the last checkpoint is written
     return run_state.history
 
 
-def _check_config(out, cfg):
-    """Write config.json, or refuse a run folder made with another configuration."""
+def _check_config(out, cfg, write):
+    """Refuse a run folder made with another configuration; else write config.json if
+    ``write`` (the main process) and it is not there yet."""
     path = out / "config.json"
     resolved = json.loads(json.dumps(dataclasses.asdict(cfg)))
     if path.is_file():
         if json.loads(path.read_text()) != resolved:
             raise InputError(out, "holds a run with another configuration; use another --out")
-    else:
+    elif write:
         write_json(path, resolved)
 
 
