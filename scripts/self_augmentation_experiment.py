@@ -1,8 +1,9 @@
 """Test error with and without self-augmentation: same data, schedule and seed (docs/training.md).
 
-    .venv/bin/python scripts/self_augmentation_experiment.py --shared ../shared/data --out EXP
+    .venv/bin/python scripts/self_augmentation_experiment.py --shared ../shared/data --out EXP \
+        [--seeds 0,1,2,3,4] [--epochs 10]
 
-Protocol (one material class, wood, as the paper trains one network per class):
+Protocol per seed (one material class, wood, as the paper trains one network per class):
 1. ``make-materials --class wood`` makes LABELED + TEST + UNLABELED sets.
 2. ``render-dataset`` renders the first LABELED + TEST sets under the shared probes, holding
    out TEST sets and a fifth of the probes for testing: the labeled dataset.
@@ -10,8 +11,11 @@ Protocol (one material class, wood, as the paper trains one network per class):
    photos (the labels are never read).
 4. ``sa-train`` twice from the same seed with the same schedule: without unlabeled data (the
    baseline) and with it (self-augmentation).
-Prints the test errors of both runs, at the last epoch and averaged over the last five (the
-errors move from epoch to epoch), as JSON, and writes them to EXP/results.json.
+The seed draws the wood sets, the splits, the initialization and the minibatches. Writes to
+EXP: results.json (every run's test history; per seed and error, the final error and its mean
+over the last five epochs), summary.md (the relative changes and their mean over the seeds)
+and curves.png (test errors over the epochs, baseline against self-augmented, per seed).
+Finished steps are skipped when the command is run again.
 """
 
 import json
@@ -21,9 +25,15 @@ import sys
 from pathlib import Path
 
 import click
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 
 BIN = Path(sys.executable).parent
 ERRORS = ("albedo_mse", "normal_angle_deg", "log_specular_mse", "log_roughness_mse", "relit_mse")
+RUNS = ("baseline", "self-augmented")
 LAST_EPOCHS = 5
 
 
@@ -31,16 +41,8 @@ def command(name, *arguments):
     subprocess.run([str(BIN / name), *map(str, arguments)], check=True)
 
 
-@click.command()
-@click.option("--shared", required=True, type=click.Path(exists=True), help="../shared/data")
-@click.option("--out", required=True, type=click.Path(), help="Experiment folder.")
-@click.option("--labeled", default=8, show_default=True, help="Labeled training sets.")
-@click.option("--test", "test_sets", default=8, show_default=True, help="Held-out test sets.")
-@click.option("--unlabeled", default=24, show_default=True, help="Sets rendered as unlabeled.")
-@click.option("--epochs", default=10, show_default=True, help="Epochs of each phase.")
-@click.option("--seed", default=0, show_default=True)
-def main(shared, out, labeled, test_sets, unlabeled, epochs, seed):
-    out, probes = Path(out), Path(shared) / "probes"
+def replicate(out, probes, labeled, test_sets, unlabeled, epochs, seed):
+    """Data and both runs of one seed; returns {run: test history}."""
     maps = out / "maps"
     command("make-materials", "--class", "wood", "--count", labeled + test_sets + unlabeled,
             "--resolution", 256, "--seed", seed, "--out", maps)
@@ -58,19 +60,78 @@ def main(shared, out, labeled, test_sets, unlabeled, epochs, seed):
             "--test-probes", 0.2, *render)
     command("render-dataset", "--probes", probes, "--svbrdfs", out / "unlabeled-maps", "--out",
             out / "unlabeled", "--test-materials", 0, "--test-probes", 0, *render)
-    results = {}
-    for run, extra in (("baseline", []), ("self-augmented", ["--unlabeled", out / "unlabeled"])):
+    histories = {}
+    for run, extra in zip(RUNS, ([], ["--unlabeled", out / "unlabeled"])):
         command("sa-train", "--dataset", out / "labeled", "--out", out / run, "--probes", probes,
                 "--network", "small", "--labeled-epochs", epochs, "--self-augmented-epochs",
                 epochs, "--seed", seed, "--log-every", 100, *extra)
-        tests = json.loads((out / run / "history.json").read_text())["test"]
-        last = tests[-LAST_EPOCHS:]
-        results[run] = {"final": tests[-1],
-                        f"mean_of_last_{LAST_EPOCHS}_epochs": {
-                            name: sum(record[name] for record in last) / len(last)
-                            for name in ERRORS}}
-    (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
-    print(json.dumps(results, indent=2))
+        histories[run] = json.loads((out / run / "history.json").read_text())["test"]
+    return histories
+
+
+def summarize(histories):
+    """Per error: final and last-five-epoch-mean errors of each run."""
+    return {run: {"final": {name: tests[-1][name] for name in ERRORS},
+                  f"mean_of_last_{LAST_EPOCHS}_epochs": {
+                      name: float(np.mean([r[name] for r in tests[-LAST_EPOCHS:]]))
+                      for name in ERRORS}}
+            for run, tests in histories.items()}
+
+
+def write_summary(path, results):
+    """Markdown: per error and measure, the change with self-augmentation per seed, its mean,
+    and in how many seeds the error fell."""
+    lines = ["| error | measure | change per seed | mean change | seeds lower |",
+             "| --- | --- | --- | --- | --- |"]
+    for name in ERRORS:
+        for measure in ("final", f"mean_of_last_{LAST_EPOCHS}_epochs"):
+            changes = [100 * (r["summary"]["self-augmented"][measure][name]
+                              / r["summary"]["baseline"][measure][name] - 1)
+                       for r in results.values()]
+            lines.append(f"| {name} | {measure.replace('_', ' ')} | "
+                         + ", ".join(f"{c:+.1f}%" for c in changes)
+                         + f" | {np.mean(changes):+.1f}% | {sum(c < 0 for c in changes)} of "
+                           f"{len(changes)} |")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def plot_curves(path, results):
+    figure, axes = plt.subplots(1, len(ERRORS), figsize=(4 * len(ERRORS), 3.6))
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for color, (seed, result) in zip(colors, results.items()):
+        for run, style in zip(RUNS, ("--", "-")):
+            tests = result["histories"][run]
+            for axis, name in zip(axes, ERRORS):
+                axis.plot([r["epoch"] for r in tests], [r[name] for r in tests], style,
+                          color=color, label=f"seed {seed} {run}")
+    for axis, name in zip(axes, ERRORS):
+        axis.set(title=name, xlabel="epoch", yscale="log")
+    axes[0].legend(fontsize=7)
+    figure.suptitle("Test errors: baseline (dashed) and self-augmented (solid), same seed")
+    figure.tight_layout()
+    figure.savefig(path, dpi=90)
+    plt.close(figure)
+
+
+@click.command()
+@click.option("--shared", required=True, type=click.Path(exists=True), help="../shared/data")
+@click.option("--out", required=True, type=click.Path(), help="Experiment folder.")
+@click.option("--labeled", default=8, show_default=True, help="Labeled training sets.")
+@click.option("--test", "test_sets", default=8, show_default=True, help="Held-out test sets.")
+@click.option("--unlabeled", default=24, show_default=True, help="Sets rendered as unlabeled.")
+@click.option("--epochs", default=10, show_default=True, help="Epochs of each phase.")
+@click.option("--seeds", default="0,1,2", show_default=True, help="Comma-separated seeds.")
+def main(shared, out, labeled, test_sets, unlabeled, epochs, seeds):
+    out, probes = Path(out), Path(shared) / "probes"
+    results = {}
+    for seed in (int(s) for s in seeds.split(",")):
+        histories = replicate(out / f"seed-{seed}", probes, labeled, test_sets, unlabeled,
+                              epochs, seed)
+        results[seed] = {"histories": histories, "summary": summarize(histories)}
+        (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
+    write_summary(out / "summary.md", results)
+    plot_curves(out / "curves.png", results)
+    print((out / "summary.md").read_text())
 
 
 if __name__ == "__main__":

@@ -21,6 +21,7 @@ from train.estimate import main as sa_estimate
 from train.networks import NetworkConfig, SVBRDFNet
 from train.schedule import LABELED, SELF_AUGMENTED, Schedule
 from train.self_augmentation import random_lightings, self_augmented_batch
+from train.trainer import Run, TrainConfig
 
 TINY_NETWORK = ["--network", "small", "--input-size", "32", "--levels", "3"]
 
@@ -167,7 +168,8 @@ def test_self_augmented_minibatch_is_a_valid_labeled_pair():
     torch.manual_seed(0)
     net = SVBRDFNet(NetworkConfig(input_size=16, width=4, max_width=8, levels=2, hidden=16))
     probes = ProbeBank([load_probe(p).radiance for p in find_probes(BUNDLED_PROBES)])
-    lightings = random_lightings(np.random.default_rng(0), 3, len(probes), max_view_angle=20.0)
+    lightings = random_lightings(np.random.default_rng(0), 3, [0, 2], max_view_angle=20.0)
+    assert set(lightings[0]) <= {0, 2}
     batch = self_augmented_batch(net, torch.rand(3, 3, 16, 16), probes, lightings, (-3.0, 0.0))
     assert batch["image"].shape == (3, 3, 16, 16)
     assert 0 <= batch["image"].min() and batch["image"].max() <= 1
@@ -230,3 +232,14 @@ def test_two_processes_follow_the_loss_curve_of_one_and_resume_in_one(dataset, t
     assert [step for step, _ in resumed] == list(range(1, 13))
     for (step, expected), (_, got) in zip(two_curve[8:], resumed[8:]):
         assert got == pytest.approx(expected, rel=0.01), step
+
+
+def test_self_augmentation_renders_under_the_training_probes_only(dataset, tmp_path):
+    network = NetworkConfig(input_size=32, width=8, max_width=64, levels=3, hidden=256)
+    run = Run(TrainConfig(dataset=str(dataset), out=str(tmp_path / "run"),
+                          probes=str(BUNDLED_PROBES), network=network, batch_size=8))
+    train_probes = {sample["probe"] for sample in run.train_set.samples}
+    test_probes = {sample["probe"] for sample in run.test_set.samples}
+    assert test_probes and not test_probes & train_probes
+    assert {run.probe_names[i] for i in run.augmentation_probes} == train_probes
+    assert len(run.probe_names) == len(train_probes) + len(test_probes)  # relit evaluation: all

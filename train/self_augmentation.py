@@ -18,10 +18,12 @@ from render.views import random_view
 from train.losses import clamp_to_valid
 
 
-def random_lightings(rng, count, probe_count, max_view_angle=0.0):
+def random_lightings(rng, count, probe_choices, max_view_angle=0.0):
     """``count`` random lightings and views drawn from ``rng`` (numpy Generator): probe indices
-    (count,), rotations in degrees about +z (count,) and unit view directions (count, 3)."""
-    probe_index = rng.integers(probe_count, size=count)
+    (count,) among ``probe_choices`` (indices into the probe bank), rotations in degrees about
+    +z (count,) and unit view directions (count, 3)."""
+    probe_choices = np.asarray(probe_choices)
+    probe_index = probe_choices[rng.integers(len(probe_choices), size=count)]
     rotation_deg = rng.uniform(0.0, 360.0, size=count)
     view = np.stack([random_view(rng, max_view_angle) for _ in range(count)])
     return probe_index, rotation_deg, view

@@ -63,7 +63,8 @@ class TrainConfig:
     out: str
     """Run folder (see the module docstring)."""
     probes: str
-    """Folder of HDR probes for the self-augmentation renders and the relit evaluation."""
+    """Folder of HDR probes for the relit evaluation and the self-augmentation renders (these
+    use only the probes of the dataset's train split, when the folder holds them)."""
     unlabeled: str | None = None
     """Folder of unlabeled photos, or a dataset folder whose labels are ignored; None: baseline."""
     network: NetworkConfig = field(default_factory=NetworkConfig)
@@ -117,6 +118,7 @@ class Run:
         self.probe_names = [path.stem for path in probe_files]
         self.probes = ProbeBank([load_probe(path).radiance for path in probe_files],
                                 device=self.device)
+        self.augmentation_probes = self._augmentation_probes()
         self.unlabeled, self.unlabeled_indices = self._unlabeled()
         self.schedule = Schedule(len(self.train_set) // cfg.batch_size, cfg.labeled_epochs,
                                  cfg.self_augmented_epochs,
@@ -133,6 +135,19 @@ class Run:
         """What training steps call: the network, or its DistributedDataParallel wrapper."""
         self.optimizer, self.scheduler = make_optimizer(self.net.parameters(), cfg.optimizer)
         self.step, self.history = 0, {"train": [], "test": []}
+
+    def _augmentation_probes(self):
+        """Indices of the probes self-augmentation renders under: those the labeled training
+        samples were rendered under (the test split's probes stay unseen in training), or
+        every probe of the folder if it holds none of them."""
+        train_probes = {sample["probe"] for sample in self.train_set.samples}
+        chosen = [i for i, name in enumerate(self.probe_names) if name in train_probes]
+        if not chosen:
+            log.warning("%s holds none of the dataset's training probes: self-augmentation "
+                        "renders under all %d of its probes", self.cfg.probes,
+                        len(self.probe_names))
+            return list(range(len(self.probe_names)))
+        return chosen
 
     def _unlabeled(self):
         if self.cfg.unlabeled is None:
@@ -182,7 +197,7 @@ class Run:
         if step.kind == SELF_AUGMENTED:
             chosen = rng.choice(self.unlabeled_indices, self.cfg.batch_size,
                                 replace=len(self.unlabeled_indices) < self.cfg.batch_size)
-            lightings = random_lightings(rng, self.cfg.batch_size, len(self.probes),
+            lightings = random_lightings(rng, self.cfg.batch_size, self.augmentation_probes,
                                          self.cfg.max_view_angle)
             photos = torch.as_tensor(np.stack([self.unlabeled.image(i) for i in shard(chosen)]))
             return self_augmented_batch(self.net, photos.to(self.device), self.probes,
