@@ -5,8 +5,8 @@ sa-train with 1 and 2 processes (torchrun, gloo on the CPU), with the scaling ef
     python benchmarks/scaling.py [--spp 256] [--render-size 256] [--rotations 4] [--steps 60]
 
 Rendering: the bundled materials and probes, every (material, probe) pair in the train split,
-``rotations`` renders each; seconds include starting the workers (and, for Ray, the local Ray
-instance, reported on its own too). Training: the small network on 64 px samples of that
+``rotations`` renders each; seconds include starting the worker processes and loading Mitsuba
+in them, not starting the local Ray instance (reported on its own). Training: the small network on 64 px samples of that
 dataset, global minibatch 16; steps per second from the trainer's own ms per step (training
 steps only), after the first logged interval (warm-up).
 """
@@ -24,6 +24,7 @@ from pathlib import Path
 import click
 
 from render.dataset import DatasetConfig, run
+from train.checkpoints import checkpoint_files, load_checkpoint
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -51,7 +52,8 @@ def training_steps_per_second(dataset, out, processes, steps_per_log):
                "--labeled-epochs", "1", "--self-augmented-epochs", "0",
                "--log-every", str(steps_per_log)]
     subprocess.run(command, cwd=REPO, check=True, capture_output=True)
-    history = json.loads((Path(out) / "history.json").read_text())["train"][1:]
+    newest = checkpoint_files(Path(out) / "checkpoints")[-1]
+    history = load_checkpoint(newest)["history"]["train"][1:]
     return 1000.0 / (sum(r["ms_per_step"] for r in history) / len(history))
 
 

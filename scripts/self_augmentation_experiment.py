@@ -1,7 +1,7 @@
 """Test error with and without self-augmentation: same data, schedule and seed (docs/training.md).
 
     .venv/bin/python scripts/self_augmentation_experiment.py --shared ../shared/data --out EXP \
-        [--seeds 0,1,2,3,4] [--epochs 10]
+        [--seeds 0,1,2] [--epochs 10] [--crops 2]
 
 Protocol per seed (one material class, wood, as the paper trains one network per class):
 1. ``make-materials --class wood`` makes LABELED + TEST + UNLABELED sets.
@@ -41,7 +41,7 @@ def command(name, *arguments):
     subprocess.run([str(BIN / name), *map(str, arguments)], check=True)
 
 
-def replicate(out, probes, labeled, test_sets, unlabeled, epochs, seed):
+def replicate(out, probes, labeled, test_sets, unlabeled, epochs, crops, seed):
     """Data and both runs of one seed; returns {run: test history}."""
     maps = out / "maps"
     command("make-materials", "--class", "wood", "--count", labeled + test_sets + unlabeled,
@@ -53,7 +53,7 @@ def replicate(out, probes, labeled, test_sets, unlabeled, epochs, seed):
         for folder in chosen:
             if not (out / name / folder.name).exists():
                 shutil.copytree(folder, out / name / folder.name)
-    render = ["--resolution", 64, "--render-size", 128, "--rotations", 1, "--crops", 2,
+    render = ["--resolution", 64, "--render-size", 128, "--rotations", 1, "--crops", crops,
               "--spp", 64, "--workers", 2, "--seed", seed]
     command("render-dataset", "--probes", probes, "--svbrdfs", out / "labeled-maps", "--out",
             out / "labeled", "--test-materials", test_sets / (labeled + test_sets),
@@ -120,13 +120,14 @@ def plot_curves(path, results):
 @click.option("--test", "test_sets", default=8, show_default=True, help="Held-out test sets.")
 @click.option("--unlabeled", default=24, show_default=True, help="Sets rendered as unlabeled.")
 @click.option("--epochs", default=10, show_default=True, help="Epochs of each phase.")
+@click.option("--crops", default=2, show_default=True, help="64 px samples per 128 px render.")
 @click.option("--seeds", default="0,1,2", show_default=True, help="Comma-separated seeds.")
-def main(shared, out, labeled, test_sets, unlabeled, epochs, seeds):
+def main(shared, out, labeled, test_sets, unlabeled, epochs, crops, seeds):
     out, probes = Path(out), Path(shared) / "probes"
     results = {}
     for seed in (int(s) for s in seeds.split(",")):
         histories = replicate(out / f"seed-{seed}", probes, labeled, test_sets, unlabeled,
-                              epochs, seed)
+                              epochs, crops, seed)
         results[seed] = {"histories": histories, "summary": summarize(histories)}
         (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
     write_summary(out / "summary.md", results)
