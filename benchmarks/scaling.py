@@ -2,6 +2,11 @@
 sa-train with 1 and 2 processes (torchrun, gloo on the CPU), with the scaling efficiency
 (throughput with 2 / (2 x throughput with 1)). Prints JSON.
 
+Mitsuba renders with at least 2 threads per worker and torch uses every core in one process
+(torchrun gives each of several processes one thread), so on a 2-core machine one worker
+already uses both cores: there the numbers measure the overhead of each scale-out path, and
+scaling itself shows only on machines with more cores than one worker uses.
+
     python benchmarks/scaling.py [--spp 256] [--render-size 256] [--rotations 4] [--steps 60]
 
 Rendering: the bundled materials and probes, every (material, probe) pair in the train split,
@@ -58,7 +63,9 @@ def training_steps_per_second(dataset, out, processes, steps_per_log):
 
 
 def scaling(one, two):
-    return {"one": one, "two": two, "efficiency": two / (2 * one)}
+    """Throughputs with 1 and 2 workers or processes, the speedup, and the scaling efficiency
+    (speedup / 2: 1.0 is perfect scaling when doubling the workers doubles the cores)."""
+    return {"one": one, "two": two, "speedup": two / one, "efficiency": two / (2 * one)}
 
 
 @click.command()

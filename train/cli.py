@@ -3,6 +3,7 @@
 import dataclasses
 import json
 import logging
+import os
 
 import click
 
@@ -39,14 +40,17 @@ NETWORKS = {"paper": NetworkConfig(), "small": SMALL_CPU_CONFIG}
 @click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
 def main(network_name, input_size, width, levels, learning_rate, **options):
     """Train SVBRDF-net, with self-augmentation when unlabeled photos are given."""
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
+    main_process = os.environ.get("RANK", "0") == "0"  # under torchrun, only rank 0 logs
+    logging.basicConfig(level=logging.INFO if main_process else logging.WARNING,
+                        format="%(asctime)s %(levelname)s %(message)s")
     overrides = {"input_size": input_size, "width": width, "levels": levels}
     try:
         network = dataclasses.replace(NETWORKS[network_name],
                                       **{k: v for k, v in overrides.items() if v is not None})
         cfg = TrainConfig(network=network, optimizer=OptimizerConfig(learning_rate=learning_rate),
                           **options)
-        click.echo(json.dumps(dataclasses.asdict(cfg), indent=2))
+        if main_process:
+            click.echo(json.dumps(dataclasses.asdict(cfg), indent=2))
         history = run(cfg)
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
