@@ -14,8 +14,9 @@ Protocol per seed (one material class, wood, as the paper trains one network per
 The seed draws the wood sets, the splits, the initialization and the minibatches. Writes to
 EXP: results.json (every run's test history; per seed and error, the final error and its mean
 over the last five epochs), summary.md (the relative changes and their mean over the seeds)
-and curves.png (test errors over the epochs, baseline against self-augmented, per seed).
-Finished steps are skipped when the command is run again.
+and curves.png (test errors over the epochs, baseline against self-augmented, per seed), all
+three rewritten after every seed. Re-running the command reuses what is finished (every
+command it runs resumes).
 """
 
 import json
@@ -130,8 +131,8 @@ def main(shared, out, labeled, test_sets, unlabeled, epochs, crops, seeds):
                               epochs, crops, seed)
         results[seed] = {"histories": histories, "summary": summarize(histories)}
         (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
-    write_summary(out / "summary.md", results)
-    plot_curves(out / "curves.png", results)
+        write_summary(out / "summary.md", results)  # after every seed: usable if stopped
+        plot_curves(out / "curves.png", results)
     print((out / "summary.md").read_text())
 
 
