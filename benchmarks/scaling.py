@@ -11,9 +11,9 @@ scaling itself shows only on machines with more cores than one worker uses.
 
 Rendering: the bundled materials and probes, every (material, probe) pair in the train split,
 ``rotations`` renders each; seconds include starting the worker processes and loading Mitsuba
-in them, not starting the local Ray instance (reported on its own). Training: the small network on 64 px samples of that
-dataset, global minibatch 16; steps per second from the trainer's own ms per step (training
-steps only), after the first logged interval (warm-up).
+in them, not starting the local Ray instance (reported on its own). Training: the small
+network on 64 px samples of that dataset, global minibatch 16; steps per second from the
+trainer's own ms per step (training steps only), after the first logged interval (warm-up).
 """
 
 import dataclasses

@@ -18,8 +18,8 @@ paper's claim is that self-augmentation helps most when labeled data is scarce. 
 EXP: results.json (every run's test history; per replicate and error, the final error and its
 mean over the last five epochs), summary.md (the relative changes and their mean over the
 replicates) and curves.png (test errors over the epochs, baseline against self-augmented, per
-replicate), all three rewritten after every replicate. Re-running the command reuses what is finished (every
-command it runs resumes).
+replicate), all three rewritten after every replicate. Re-running the command reuses what is
+finished (every command it runs resumes).
 """
 
 import json
