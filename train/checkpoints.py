@@ -16,7 +16,8 @@ import torch
 from render.atomic_files import atomic_path
 from render.errors import InputError
 
-FORMAT = "sa-svbrdf checkpoint 1"
+FORMAT = "sa-svbrdf checkpoint 2"
+"""Version 2: the albedo network ends in a softplus (version 1: a sigmoid)."""
 KEEP = 3
 NAME = re.compile(r"^step-(\d{9})\.pt$")
 
@@ -40,17 +41,24 @@ def checkpoint_files(folder):
 
 
 def load_checkpoint(path):
-    """The state dict of a checkpoint file, checked to be one of ours."""
+    """The state dict of a checkpoint file, checked to be one of ours. It is read with torch's
+    safe loader (``weights_only=True``), so a file carrying pickled code is refused without
+    running it."""
     path = Path(path)
     if not path.is_file():
         raise InputError(path, "checkpoint not found")
     try:
-        state = torch.load(path, map_location="cpu", weights_only=False)
+        state = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as error:  # torch raises many types for a corrupt or foreign file
-        raise InputError(path, f"cannot read checkpoint ({type(error).__name__})") from None
+        raise InputError(path, f"cannot read checkpoint safely ({type(error).__name__}: "
+                               f"{_first_line(error)})") from None
     if not isinstance(state, dict) or state.get("format") != FORMAT:
         raise InputError(path, f"not an sa-svbrdf checkpoint (expected format '{FORMAT}')")
     return state
+
+
+def _first_line(error):
+    return (str(error).strip().splitlines() or [""])[0][:200]
 
 
 def load_weights(net, state, path):
@@ -58,6 +66,5 @@ def load_weights(net, state, path):
     try:
         net.load_state_dict(state["model"])
     except RuntimeError as error:
-        first = str(error).strip().splitlines()[0]
-        raise InputError(path, f"weights do not fit this network architecture ({first})") \
-            from None
+        raise InputError(path, f"weights do not fit this network architecture "
+                               f"({_first_line(error)})") from None

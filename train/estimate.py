@@ -35,32 +35,11 @@ from render.materials import ReducedSVBRDF, write_material
 from render.probes import load_probe
 from render.scene_file import write_scene_file
 from render.torch_renderer import ProbeBank, expose, render
-from train.checkpoints import checkpoint_files, load_checkpoint, load_weights
-from train.networks import SVBRDFNet
+from train.model_files import SHIPPED, load_network, shipped_model_path
 from train.photos import read_photo
-from train.trainer import config_from_dict
 
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT_PROBE = REPO / "probes" / "park.exr"
-
-
-def load_network(path, device):
-    """The SVBRDF-net of a checkpoint (or of a run folder's newest checkpoint), in evaluation
-    mode."""
-    path = Path(path)
-    if path.is_dir():
-        newest = checkpoint_files(path / "checkpoints")
-        if not newest:
-            raise InputError(path, "run folder without checkpoints")
-        path = newest[-1]
-    state = load_checkpoint(path)
-    try:
-        network = config_from_dict(state["config"]).network
-    except (KeyError, TypeError) as error:
-        raise InputError(path, f"checkpoint has no valid configuration ({error})") from None
-    net = SVBRDFNet(network)
-    load_weights(net, state, path)
-    return net.to(device).eval()
 
 
 def estimate(net, photo):
@@ -77,15 +56,19 @@ def estimate(net, photo):
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("photos", nargs=-1, required=True, type=click.Path())
-@click.option("--model", required=True, type=click.Path(),
-              help="sa-train checkpoint (.pt), or a run folder (its newest checkpoint).")
+@click.option("--model", type=click.Path(), default=None,
+              help="A model file (.safetensors), an sa-train checkpoint (.pt) or a run folder "
+                   "(its newest checkpoint). Default: the shipped network of --class.")
+@click.option("--class", "material_class", type=click.Choice(SHIPPED), default="general",
+              show_default=True, help="Shipped network to use when no --model is given.")
 @click.option("--out", required=True, type=click.Path(), help="Output folder.")
 @click.option("--probe", type=click.Path(), default=str(DEFAULT_PROBE), show_default=True,
               help="HDR probe of the relit preview and the Mitsuba scene.")
 @click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
-def main(photos, model, out, probe, device):
+def main(photos, model, material_class, out, probe, device):
     """Estimate the reduced SVBRDF of each PHOTO."""
     try:
+        model = model or shipped_model_path(material_class)
         net = load_network(model, torch.device(device))
         size = net.config.input_size
         inputs = [read_photo(path, size) for path in photos]

@@ -38,10 +38,17 @@ def relit(parameters, probes, probe_index, rotation_deg):
     return expose(hdr)
 
 
+MAX_RELATIVE_ALBEDO = 4.0
+"""Largest relative albedo a provisional estimate keeps (labels reach about 3 for saturated
+colors)."""
+
+
 def clamp_to_valid(prediction, log_specular_range):
     """Parameters clamped to the range the renderer and the labels allow: relative albedo in
-    [0.01, 1], Ward roughness in [0.02, 1], log relative specular albedo in the given range."""
+    [0.01, MAX_RELATIVE_ALBEDO], Ward roughness in [0.02, 1], log relative specular albedo in
+    the given range."""
     low, high = log_specular_range
-    return {"albedo": prediction["albedo"].clamp(0.01, 1.0), "normal": prediction["normal"],
+    return {"albedo": prediction["albedo"].clamp(0.01, MAX_RELATIVE_ALBEDO),
+            "normal": prediction["normal"],
             "log_specular": prediction["log_specular"].clamp(low, high),
             "log_roughness": prediction["log_roughness"].clamp(math.log(0.02), 0.0)}

@@ -11,9 +11,11 @@ All three networks share the structure of their analysis sub-network: ``levels``
   have one.)
 - ``MapNet``: a U-Net style synthesis that mirrors the analysis, each block a 3x3 convolution,
   batch norm and ReLU, then bilinear upsampling and concatenation of the analysis features of
-  the same size (skip links); a last 3x3 convolution, without batch norm, and a sigmoid give a
-  (B, 3, H, W) map in [0, 1]. One MapNet predicts the relative diffuse albedo, another the
-  normals encoded (n + 1) / 2.
+  the same size (skip links); a last 3x3 convolution, without batch norm, gives a (B, 3, H, W)
+  map. One MapNet predicts the relative diffuse albedo, through a softplus: relative albedos
+  exceed 1 where a color is saturated (a blue fabric's blue channel reaches 2.8), which the
+  paper's sigmoid cannot reach. Another predicts the normals encoded (n + 1) / 2, through a
+  sigmoid.
 
 Input: (B, 3, S, S) photos, linear RGB in [0, 1] (docs/conventions.md), S divisible by
 2^levels. Outputs follow the label conventions of docs/dataset-format.md.
@@ -51,6 +53,10 @@ class NetworkConfig:
 
 SMALL_CPU_CONFIG = NetworkConfig(input_size=64, width=8, max_width=64, levels=4, hidden=256)
 """A configuration that trains in minutes on a CPU (demo, tests)."""
+
+COMPACT_CONFIG = NetworkConfig(input_size=256, width=16, max_width=128, levels=5, hidden=512)
+"""The shipped models' configuration: the paper's input size and depth at half its widths and
+hidden units, 6.2 M parameters (11.8 MiB in float16; the paper's is 24.8 M)."""
 
 
 def _block(in_channels, out_channels):
@@ -98,10 +104,13 @@ class HomogeneousNet(nn.Module):
 
 
 class MapNet(nn.Module):
-    """Photo -> a (B, 3, S, S) map in [0, 1], through a U-Net style synthesis."""
+    """Photo -> a (B, 3, S, S) map through a U-Net style synthesis, ending in ``activation``:
+    ``torch.sigmoid`` for a map in [0, 1] (encoded normals) or ``functional.softplus`` for an
+    unbounded positive one (relative albedo, which exceeds 1 for saturated colors)."""
 
-    def __init__(self, config):
+    def __init__(self, config, activation):
         super().__init__()
+        self.activation = activation
         self.analysis = Analysis(config)
         channels = config.channels()
         inputs = [channels[-1]] + [2 * c for c in reversed(channels[1:])]
@@ -114,7 +123,7 @@ class MapNet(nn.Module):
             x = functional.interpolate(block(x), scale_factor=2, mode="bilinear",
                                        align_corners=False)
             x = torch.cat([x, skip], 1)  # (B, 2 C_l, S / 2^l, S / 2^l)
-        return torch.sigmoid(self.output(x))
+        return self.activation(self.output(x))
 
 
 class SVBRDFNet(nn.Module):
@@ -124,12 +133,12 @@ class SVBRDFNet(nn.Module):
         super().__init__()
         self.config = config
         self.homogeneous = HomogeneousNet(config)
-        self.albedo = MapNet(config)
-        self.normal = MapNet(config)
+        self.albedo = MapNet(config, functional.softplus)
+        self.normal = MapNet(config, torch.sigmoid)
 
     def forward(self, image):
-        """``image`` (B, 3, S, S) -> dict of albedo (B, 3, S, S) relative diffuse albedo in
-        [0, 1]; normal (B, 3, S, S) unit tangent-space normals; log_specular (B, 3);
+        """``image`` (B, 3, S, S) -> dict of albedo (B, 3, S, S) relative diffuse albedo
+        (positive, mean about 0.5); normal (B, 3, S, S) unit tangent-space normals; log_specular (B, 3);
         log_roughness (B, 1)."""
         if image.shape[1:] != (3, self.config.input_size, self.config.input_size):
             raise ValueError(f"expected photos of shape (B, 3, {self.config.input_size}, "

@@ -46,6 +46,8 @@ from train.checkpoints import checkpoint_files, load_checkpoint, save_checkpoint
 from train.evaluation import evaluate, stack_items  # noqa: E402
 from train.labeled_dataset import LabeledDataset  # noqa: E402
 from train.losses import losses  # noqa: E402
+from train.map_samples import MapSampler  # noqa: E402
+from train.model_files import load_network  # noqa: E402
 from train.networks import NetworkConfig, SVBRDFNet  # noqa: E402
 from train.optimization import OptimizerConfig, make_optimizer  # noqa: E402
 from train.schedule import SELF_AUGMENTED, Schedule, labeled_batch_indices  # noqa: E402
@@ -58,13 +60,26 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class TrainConfig:
-    dataset: str
-    """A render-dataset output folder (its train split trains, its test split evaluates)."""
     out: str
     """Run folder (see the module docstring)."""
     probes: str
-    """Folder of HDR probes for the relit evaluation and the self-augmentation renders (these
-    use only the probes of the dataset's train split, when the folder holds them)."""
+    """Folder of HDR probes for the relit evaluation, the self-augmentation renders and the
+    ``labeled_maps`` renders (these use only the probes of the dataset's train split, when a
+    dataset is given and the folder holds them)."""
+    dataset: str | None = None
+    """A render-dataset output folder: its train split trains (unless ``labeled_maps`` is
+    given), its test split evaluates."""
+    labeled_maps: str | None = None
+    """A folder of material folders: labeled minibatches are rendered from them on the fly by
+    the torch renderer (train.map_samples) instead of read from ``dataset``."""
+    init_from: str | None = None
+    """A model (shipped file, checkpoint or run folder) whose weights start the training, for
+    fine-tuning; its network configuration must equal ``network``. None: random weights."""
+    render_size: int = 512
+    """With ``labeled_maps``: the shorter side the material maps are resampled to before
+    cropping (render-dataset's ``--render-size``)."""
+    epoch_samples: int = 3200
+    """With ``labeled_maps``: labeled samples per epoch."""
     unlabeled: str | None = None
     """Folder of unlabeled photos, or a dataset folder whose labels are ignored; None: baseline."""
     network: NetworkConfig = field(default_factory=NetworkConfig)
@@ -88,14 +103,6 @@ class TrainConfig:
     device: str = "cpu"
 
 
-def config_from_dict(values):
-    """A TrainConfig from its ``dataclasses.asdict`` form (as stored in checkpoints)."""
-    values = dict(values)
-    values["network"] = NetworkConfig(**values["network"])
-    values["optimizer"] = OptimizerConfig(**values["optimizer"])
-    return TrainConfig(**values)
-
-
 class Run:
     """The state of one training run (in one process): data, network, optimizer, history."""
 
@@ -105,30 +112,39 @@ class Run:
         if cfg.batch_size % place.world_size:
             raise ValueError(f"--batch-size {cfg.batch_size} is not divisible by the "
                              f"{place.world_size} processes")
-        self.train_set = LabeledDataset(cfg.dataset, "train")
-        self.test_set = LabeledDataset(cfg.dataset, "test")
-        if len(self.train_set) < cfg.batch_size:
-            raise InputError(cfg.dataset, f"{len(self.train_set)} training samples, fewer than "
-                                          f"one minibatch of {cfg.batch_size}")
-        size = self.train_set[0]["image"].shape[-1]
-        if size != cfg.network.input_size:
-            raise InputError(cfg.dataset, f"samples are {size}x{size}; the network takes "
-                                          f"{cfg.network.input_size}x{cfg.network.input_size}")
+        if cfg.dataset is None and cfg.labeled_maps is None:
+            raise InputError(cfg.out, "give a dataset, labeled maps, or both")
+        empty = []
+        self.train_set = LabeledDataset(cfg.dataset, "train") if cfg.dataset else empty
+        self.test_set = LabeledDataset(cfg.dataset, "test") if cfg.dataset else empty
         probe_files = find_probes(cfg.probes)
         self.probe_names = [path.stem for path in probe_files]
         self.probes = ProbeBank([load_probe(path).radiance for path in probe_files],
                                 device=self.device)
         self.augmentation_probes = self._augmentation_probes()
+        if cfg.labeled_maps is not None:
+            self.maps = MapSampler(cfg.labeled_maps, self.probes, self.augmentation_probes,
+                                   cfg.network.input_size, cfg.render_size, cfg.max_view_angle)
+            steps_per_epoch = cfg.epoch_samples // cfg.batch_size
+            self.log_specular_range = self.maps.log_specular_range()
+        else:
+            self.maps = None
+            self._check_dataset()
+            steps_per_epoch = len(self.train_set) // cfg.batch_size
+            log_specular = np.stack([self.train_set[i]["log_specular"]
+                                     for i in range(len(self.train_set))])
+            self.log_specular_range = (float(log_specular.min()), float(log_specular.max()))
+        if steps_per_epoch < 1:
+            raise InputError(cfg.labeled_maps or cfg.dataset,
+                             f"fewer training samples than one minibatch of {cfg.batch_size}")
         self.unlabeled, self.unlabeled_indices = self._unlabeled()
-        self.schedule = Schedule(len(self.train_set) // cfg.batch_size, cfg.labeled_epochs,
-                                 cfg.self_augmented_epochs,
+        self.schedule = Schedule(steps_per_epoch, cfg.labeled_epochs, cfg.self_augmented_epochs,
                                  cfg.unlabeled_per_labeled if self.unlabeled is not None else 0)
-        log_specular = np.stack([self.train_set[i]["log_specular"]
-                                 for i in range(len(self.train_set))])
-        self.log_specular_range = (float(log_specular.min()), float(log_specular.max()))
 
         torch.manual_seed(cfg.seed)
         self.net = SVBRDFNet(cfg.network).to(self.device)
+        if cfg.init_from is not None:
+            self._initialize_from(cfg.init_from)
         if place.enabled:
             distributed.synchronize_batch_norm(self.net)  # before the optimizer holds its weights
         self.model = self.net
@@ -136,10 +152,38 @@ class Run:
         self.optimizer, self.scheduler = make_optimizer(self.net.parameters(), cfg.optimizer)
         self.step, self.history = 0, {"train": [], "test": []}
 
+    def _initialize_from(self, model):
+        start = load_network(model)
+        if start.config != self.cfg.network:
+            raise InputError(model, f"its network {start.config} differs from this run's "
+                                    f"{self.cfg.network}")
+        self.net.load_state_dict(start.state_dict())
+
+    def _check_dataset(self):
+        cfg = self.cfg
+        if len(self.train_set) < cfg.batch_size:
+            raise InputError(cfg.dataset, f"{len(self.train_set)} training samples, fewer than "
+                                          f"one minibatch of {cfg.batch_size}")
+        size = self.train_set[0]["image"].shape[-1]
+        if size != cfg.network.input_size:
+            raise InputError(cfg.dataset, f"samples are {size}x{size}; the network takes "
+                                          f"{cfg.network.input_size}x{cfg.network.input_size}")
+
+    def _labeled_colors(self):
+        """(N, 3) mean colors of labeled training images (for the unlabeled subset)."""
+        if self.maps is not None:
+            images = self.maps.batch(np.random.default_rng([self.cfg.seed, -1]), 256)["image"]
+            return images.mean((2, 3)).cpu().numpy()
+        return np.stack([self.train_set[i]["image"].mean((1, 2))
+                         for i in range(len(self.train_set))])
+
     def _augmentation_probes(self):
-        """Indices of the probes self-augmentation renders under: those the labeled training
-        samples were rendered under (the test split's probes stay unseen in training), or
-        every probe of the folder if it holds none of them."""
+        """Indices of the probes self-augmentation (and ``labeled_maps``) renders under: those
+        the dataset's training samples were rendered under (the test split's probes stay unseen
+        in training), or every probe of the folder if it holds none of them or no dataset is
+        given."""
+        if self.cfg.dataset is None:
+            return list(range(len(self.probe_names)))
         train_probes = {sample["probe"] for sample in self.train_set.samples}
         chosen = [i for i, name in enumerate(self.probe_names) if name in train_probes]
         if not chosen:
@@ -153,10 +197,8 @@ class Run:
         if self.cfg.unlabeled is None:
             return None, None
         images = UnlabeledImages(self.cfg.unlabeled, self.cfg.network.input_size)
-        labeled_colors = np.stack([self.train_set[i]["image"].mean((1, 2))
-                                   for i in range(len(self.train_set))])
         try:
-            chosen = select_matching(labeled_colors, images.average_colors(),
+            chosen = select_matching(self._labeled_colors(), images.average_colors(),
                                      np.random.default_rng(self.cfg.seed),
                                      limit=self.cfg.unlabeled_limit)
         except ValueError as error:
@@ -203,6 +245,8 @@ class Run:
             return self_augmented_batch(self.net, photos.to(self.device), self.probes,
                                         [shard(values) for values in lightings],
                                         self.log_specular_range)
+        if self.maps is not None:
+            return self.maps.batch(rng, self.cfg.batch_size, shard)
         indices = labeled_batch_indices(self.cfg.seed, step.epoch, step.batch,
                                         self.cfg.batch_size, len(self.train_set))
         return stack_items([self.train_set[int(i)] for i in shard(indices)], self.device)
@@ -300,8 +344,11 @@ def _log_interval(run_state, interval, interval_start, index):
 
 def _evaluate(run_state, writer, epoch):
     cfg = run_state.cfg
+    out = Path(cfg.out)
     if not len(run_state.test_set):
-        log.warning("no test samples: evaluation skipped")
+        log.info("epoch %d: no test samples (no dataset test split), evaluation skipped", epoch)
+        write_json(out / "history.json", run_state.history)
+        _plot_history(out / "loss_curves.png", run_state.history)
         return
     errors, example = evaluate(run_state.net, run_state.test_set, run_state.probes,
                                run_state.probe_names, cfg.batch_size, run_state.device)
@@ -310,7 +357,6 @@ def _evaluate(run_state, writer, epoch):
         writer.add_scalar(f"test/{name}", value, run_state.step)
     writer.add_image("test/examples", example, run_state.step)
     log.info("epoch %d test | %s", epoch, " ".join(f"{k} {v:.4g}" for k, v in errors.items()))
-    out = Path(cfg.out)
     with atomic_path(out / "examples.png") as tmp:
         Image.fromarray(np.round(example.numpy().transpose(1, 2, 0) * 255).astype(np.uint8)) \
             .save(tmp, format="PNG")

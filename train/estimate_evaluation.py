@@ -1,0 +1,313 @@
+"""``sa-evaluate``: the quality of a model's estimates on labeled test data, against the naive
+baseline. This is the number the project is judged by.
+
+Test data is either a ``render-dataset`` folder (up to ``--samples`` of its ``--split``, by
+default the held-out "test" split) or a folder of material folders, rendered here by the torch renderer under the
+probes of ``--probes`` (train.map_samples; ``--samples`` of them, drawn from ``--seed``).
+
+Each test image goes the way a user's photo goes: it is saved as an 8-bit PNG, gamma 1/2.2
+encoded, and read back by train.photos.read_photo (gamma 2.2 decoding, centre square, resize),
+then estimated by train.estimate.estimate, exactly as ``sa-estimate`` does. The truth is box
+filtered to the network's input size when the data has another.
+
+Errors per sample (all on the paper's relative quantities, natural logs):
+    albedo_rmse              RMSE of the relative diffuse albedo (pixels and channels)
+    normal_angle_deg         mean angle between estimated and true normals
+    log_specular_error       |log relative specular albedo error|, mean over the channels
+    log_roughness_error      |log Ward alpha error|
+    relit_rmse               estimate and truth rendered by the torch renderer under
+                             ``relights`` probes the photo was not taken under (the data's
+                             test-split probes when the folder holds them), each at a random
+                             rotation, both scaled by the exposure of the truth's render and
+                             clamped to [0, 1]; the RMSE over pixels, channels and relights
+The naive baseline gets the same errors: albedo = the linearized photo scaled to mean 0.5, flat
+normals, relative specular albedo 0.08 on every channel, Ward alpha 0.25. The means, and each
+mean of the model divided by the baseline's (``ratio``, below 1: the model is better), close
+the report.
+"""
+
+import json
+import math
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+from PIL import Image  # noqa: E402
+from torch.nn import functional
+
+from render.atomic_files import atomic_path
+from render.color import REC709_LUMINANCE, linear_to_srgb
+from render.errors import InputError
+from render.exposure import DEFAULT_KEY
+from render.probes import find_probes, load_probe
+from render.torch_renderer import ProbeBank, render
+from train.estimate import estimate
+from train.labeled_dataset import LabeledDataset
+from train.map_samples import MapSampler
+from train.photos import PHOTO_GAMMA, read_photo
+
+NAIVE_SPECULAR = 0.08
+NAIVE_ROUGHNESS = 0.25
+ERRORS = ("albedo_rmse", "normal_angle_deg", "log_specular_error", "log_roughness_error",
+          "relit_rmse")
+FIGURE_ROWS = 6
+SWATCH_LIGHT = np.array([1.0, 1.0, 2.0]) / math.sqrt(6.0)
+"""Direction of the directional light of the specular swatches (toward the light)."""
+
+
+@dataclass(frozen=True)
+class EvaluationConfig:
+    out: str
+    """Folder for results.json and figure.png."""
+    probes: str
+    """Folder of HDR probes: the relighting probes, and the lighting of ``materials``."""
+    dataset: str | None = None
+    """A render-dataset folder; its ``split`` is evaluated."""
+    materials: str | None = None
+    """Or a folder of material folders, rendered here under ``probes``."""
+    split: str = "test"
+    """The dataset's split: "test", "train" or "all"."""
+    samples: int = 64
+    """Samples rendered from ``materials``; of a dataset's split, at most this many, evenly
+    spaced over it."""
+    sample_size: int = 256
+    """Side (px) of the samples rendered from ``materials``."""
+    relights: int = 3
+    seed: int = 0
+    device: str = "cpu"
+
+
+def test_samples(cfg, bank, probe_names):
+    """The test samples: (image (3, H, W) float32, truth dict of (1, ...) tensors, own probe
+    name or None, sample name), as a list."""
+    if (cfg.dataset is None) == (cfg.materials is None):
+        raise InputError(cfg.out, "give either a dataset folder or a materials folder")
+    if cfg.dataset is not None:
+        data = LabeledDataset(cfg.dataset, None if cfg.split == "all" else cfg.split)
+        if len(data) == 0:
+            raise InputError(cfg.dataset, f"no samples in the '{cfg.split}' split")
+        samples = []
+        for i in np.unique(np.linspace(0, len(data) - 1, min(cfg.samples, len(data))).astype(int)):
+            item = data[int(i)]
+            truth = {name: torch.as_tensor(item[name])[None] for name in
+                     ("albedo", "normal", "log_specular", "log_roughness")}
+            samples.append((item["image"], truth, item["provenance"]["probe"],
+                            item["provenance"]["id"]))
+        return samples
+    sampler = MapSampler(cfg.materials, bank, range(len(bank)), cfg.sample_size,
+                         2 * cfg.sample_size)
+    rng = np.random.default_rng([cfg.seed, 1])
+    samples = []
+    for i in range(cfg.samples):
+        batch = sampler.batch(rng, 1)
+        provenance = batch["provenance"]
+        truth = {name: batch[name] for name in
+                 ("albedo", "normal", "log_specular", "log_roughness")}
+        samples.append((batch["image"][0].cpu().numpy(), truth,
+                        probe_names[provenance[0]["probe_index"]],
+                        f"{provenance[0]['material']}_{i:03d}"))
+    return samples
+
+
+def as_photo_file(image, folder, name):
+    """Save a linear (3, H, W) image in [0, 1] as an 8-bit PNG encoded with gamma 1/2.2, the
+    encoding train.photos.read_photo undoes; returns the path."""
+    path = Path(folder) / f"{name}.png"
+    encoded = np.clip(image.transpose(1, 2, 0), 0.0, 1.0) ** (1.0 / PHOTO_GAMMA)
+    Image.fromarray(np.round(encoded * 255.0).astype(np.uint8)).save(path)
+    return path
+
+
+def model_estimate(net, photo):
+    """The estimate sa-estimate would write, as a dict of (1, ...) tensors."""
+    svbrdf = estimate(net, photo)
+    return {"albedo": torch.as_tensor(svbrdf.albedo.transpose(2, 0, 1))[None],
+            "normal": torch.as_tensor(svbrdf.normal.transpose(2, 0, 1))[None],
+            "log_specular": torch.as_tensor(np.log(svbrdf.specular))[None],
+            "log_roughness": torch.tensor([[math.log(svbrdf.roughness)]])}
+
+
+def naive_estimate(photo):
+    """The naive baseline of a (3, S, S) linear photo, as a dict of (1, ...) tensors."""
+    image = torch.as_tensor(photo)[None].double()
+    albedo = image * (0.5 / max(float(image.mean()), 1e-6))
+    normal = torch.zeros_like(albedo)
+    normal[:, 2] = 1.0
+    return {"albedo": albedo.float(), "normal": normal.float(),
+            "log_specular": torch.full((1, 3), math.log(NAIVE_SPECULAR)),
+            "log_roughness": torch.tensor([[math.log(NAIVE_ROUGHNESS)]])}
+
+
+def at_size(truth, size):
+    """The truth's maps box filtered (normals renormalized) to ``size`` x ``size``."""
+    if truth["albedo"].shape[-1] == size:
+        return truth
+    albedo = functional.interpolate(truth["albedo"], size=(size, size), mode="area")
+    normal = functional.normalize(functional.interpolate(truth["normal"], size=(size, size),
+                                                         mode="area"), dim=1)
+    return truth | {"albedo": albedo, "normal": normal}
+
+
+def relit_under(parameters, bank, probe_index, rotation_deg):
+    """HDR torch renders (R, 3, S, S) of one parameter set under R probes and rotations."""
+    count = len(probe_index)
+    return render(parameters["albedo"].expand(count, -1, -1, -1),
+                  parameters["normal"].expand(count, -1, -1, -1),
+                  torch.exp(parameters["log_specular"]).expand(count, -1),
+                  torch.exp(parameters["log_roughness"][:, 0]).expand(count),
+                  bank, probe_index, rotation_deg)
+
+
+def exposed_like(hdr, reference_hdr):
+    """``hdr`` scaled by the auto-exposure of ``reference_hdr`` (per image), clamped."""
+    weights = torch.as_tensor(REC709_LUMINANCE, dtype=hdr.dtype, device=hdr.device)[:, None, None]
+    mean = (reference_hdr * weights).sum(1).mean((1, 2))
+    return (hdr * (DEFAULT_KEY / mean)[:, None, None, None]).clamp(0.0, 1.0)
+
+
+def sample_errors(estimate_, truth, relit_estimate, relit_truth):
+    """The errors of the module docstring, as floats."""
+    cosine = (estimate_["normal"] * truth["normal"]).sum(1).clamp(-1.0, 1.0)
+    return {
+        "albedo_rmse": float(torch.sqrt(torch.mean((estimate_["albedo"] - truth["albedo"]) ** 2))),
+        "normal_angle_deg": float(torch.rad2deg(torch.acos(cosine)).mean()),
+        "log_specular_error": float(torch.mean(torch.abs(estimate_["log_specular"]
+                                                         - truth["log_specular"]))),
+        "log_roughness_error": float(torch.abs(estimate_["log_roughness"]
+                                               - truth["log_roughness"]).mean()),
+        "relit_rmse": float(torch.sqrt(torch.mean((relit_estimate - relit_truth) ** 2))),
+    }
+
+
+def novel_lightings(rng, own_probe, probe_names, held_out, count):
+    """``count`` probe indices other than ``own_probe`` (among ``held_out`` names when any are
+    in the folder) and rotations in degrees."""
+    pool = [i for i, name in enumerate(probe_names) if name != own_probe
+            and (not held_out or name in held_out)]
+    if not pool:
+        pool = [i for i, name in enumerate(probe_names) if name != own_probe] or [0]
+    chosen = rng.choice(pool, size=count, replace=len(pool) < count)
+    return torch.as_tensor(chosen), torch.as_tensor(rng.uniform(0.0, 360.0, size=count))
+
+
+def held_out_probes(cfg):
+    """Names of the dataset's test-split probes (empty for a materials folder)."""
+    if cfg.dataset is None:
+        return set()
+    return {record["probe"] for record in LabeledDataset(cfg.dataset, "test").samples}
+
+
+def run(cfg, net):
+    """Evaluate ``net`` (evaluation mode) on the data of ``cfg``; write results.json and
+    figure.png into ``cfg.out``; return the report dict."""
+    probe_files = find_probes(cfg.probes)
+    probe_names = [path.stem for path in probe_files]
+    bank = ProbeBank([load_probe(path).radiance for path in probe_files], device=cfg.device)
+    samples = test_samples(cfg, bank, probe_names)
+    held_out = held_out_probes(cfg)
+    size = net.config.input_size
+    records, figure_rows = [], []
+    shown = set(np.linspace(0, len(samples) - 1, min(FIGURE_ROWS, len(samples))).astype(int))
+    with tempfile.TemporaryDirectory() as photos:
+        for i, (image, truth, own_probe, name) in enumerate(samples):
+            photo = read_photo(as_photo_file(image, photos, f"{i:05d}"), size)
+            truth = at_size({name: value.to(cfg.device) for name, value in truth.items()}, size)
+            probe_index, rotation = novel_lightings(np.random.default_rng([cfg.seed, 2, i]),
+                                                    own_probe, probe_names, held_out,
+                                                    cfg.relights)
+            relit_truth = relit_under(truth, bank, probe_index, rotation)
+            record = {"sample": name, "photo_probe": own_probe,
+                      "relight_probes": [probe_names[int(p)] for p in probe_index]}
+            for kind, parameters in (("model", model_estimate(net, photo)),
+                                     ("naive", naive_estimate(photo))):
+                parameters = {name: value.to(cfg.device) for name, value in parameters.items()}
+                relit = exposed_like(relit_under(parameters, bank, probe_index, rotation),
+                                     relit_truth)
+                record[kind] = sample_errors(parameters, truth, relit,
+                                             exposed_like(relit_truth, relit_truth))
+                if kind == "model" and i in shown:
+                    figure_rows.append(figure_row(photo, parameters, truth, relit[0],
+                                                  exposed_like(relit_truth, relit_truth)[0]))
+            records.append(record)
+    report = {"model": str(getattr(net, "source", "")),
+              "data": cfg.dataset or cfg.materials, "split": cfg.split if cfg.dataset else None,
+              "samples": len(records), "mean": summary(records), "per_sample": records}
+    out = Path(cfg.out)
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out / "results.json") as tmp:
+        tmp.write_text(json.dumps(report, indent=1))
+    write_figure(out / "figure.png", figure_rows)
+    return report
+
+
+def summary(records):
+    """Means of the model's and the baseline's errors, and their ratios."""
+    mean = {kind: {name: float(np.mean([r[kind][name] for r in records])) for name in ERRORS}
+            for kind in ("model", "naive")}
+    mean["ratio"] = {name: mean["model"][name] / mean["naive"][name]
+                     if mean["naive"][name] > 0 else None for name in ERRORS}
+    return mean
+
+
+def specular_swatch(log_specular, log_roughness, size):
+    """A sphere (size, size, 3) of relative diffuse albedo 0.5 and the given homogeneous Ward
+    specular, lit by one directional light (SWATCH_LIGHT) and seen from +z, linear RGB."""
+    coords = (np.arange(size) + 0.5) / size * 2 - 1
+    y, x = np.meshgrid(-coords, coords, indexing="ij")
+    inside = x * x + y * y < 1
+    normal = np.stack([x, y, np.sqrt(np.clip(1 - x * x - y * y, 0, 1))], -1)
+    cos_i = np.clip(normal @ SWATCH_LIGHT, 0, None)
+    cos_o = np.clip(normal[..., 2], 1e-4, None)
+    half = SWATCH_LIGHT + np.array([0.0, 0.0, 1.0])
+    half /= np.linalg.norm(half)
+    cos_h = np.clip(normal @ half, 1e-4, 1)
+    alpha = math.exp(float(log_roughness))
+    tan2 = (1 - cos_h ** 2) / cos_h ** 2
+    ward = np.exp(-tan2 / alpha ** 2) / (4 * math.pi * alpha ** 2
+                                         * np.sqrt(np.clip(cos_i, 1e-4, None) * cos_o))
+    specular = np.exp(np.asarray(log_specular, np.float64))
+    brdf = 0.5 / math.pi + specular * ward[..., None]
+    radiance = brdf * (cos_i * math.pi * 1.2)[..., None]
+    return np.where(inside[..., None], radiance, 0.15).astype(np.float32)
+
+
+def figure_row(photo, estimate_, truth, relit_estimate, relit_truth):
+    """photo | albedo est | albedo true | normals est | normals true | swatch est | swatch
+    true | relit est | relit true, as one (S, 9 S, 3) sRGB row in [0, 1]."""
+    size = photo.shape[-1]
+
+    def chw(tensor):
+        return tensor.detach().cpu().numpy().transpose(1, 2, 0)
+
+    panels = [linear_to_srgb(photo.transpose(1, 2, 0)),
+              linear_to_srgb(chw(estimate_["albedo"][0])), linear_to_srgb(chw(truth["albedo"][0])),
+              (chw(estimate_["normal"][0]) + 1) / 2, (chw(truth["normal"][0]) + 1) / 2]
+    panels += [linear_to_srgb(specular_swatch(p["log_specular"][0].cpu().numpy(),
+                                              p["log_roughness"][0, 0].item(), size))
+               for p in (estimate_, truth)]
+    panels += [linear_to_srgb(chw(relit_estimate)), linear_to_srgb(chw(relit_truth))]
+    return np.concatenate(panels, axis=1)
+
+
+def write_figure(path, rows):
+    """Stack the rows with a header line of column names; write an 8-bit PNG."""
+    picture = np.clip(np.concatenate(rows, axis=0), 0, 1)
+    names = ["photo", "albedo est", "albedo true", "normals est", "normals true",
+             "specular est", "specular true", "relit est", "relit true"]
+    height, width = picture.shape[:2]
+    figure = plt.figure(figsize=(width / 100, height / 100 + 0.3), dpi=100)
+    axis = figure.add_axes([0, 0, 1, height / (height + 30)])
+    axis.imshow(picture)
+    axis.axis("off")
+    for k, name in enumerate(names):
+        figure.text((k + 0.5) / len(names), 1 - 15 / (height + 30), name, ha="center",
+                    va="center", fontsize=8)
+    with atomic_path(path) as tmp:
+        figure.savefig(tmp, format="png", dpi=100)
+    plt.close(figure)

@@ -1,0 +1,100 @@
+"""Model files: the three forms a model is given in, each read without executing code.
+
+- a run folder of ``sa-train`` (its newest checkpoint);
+- an ``sa-train`` checkpoint (``.pt``), read by train.checkpoints with torch's safe loader
+  (``weights_only=True``: tensors and plain containers only, a pickled callable is refused);
+- a shipped model (``.safetensors``): the network's weights in float16 and, in the file's
+  metadata, ``format`` (FORMAT), ``network`` (the NetworkConfig as JSON) and free-form
+  provenance (``class``, ``recipe``, ...). safetensors holds tensors and strings only.
+
+The shipped models live in ``models/`` of the repository (models/README.md is their card):
+``svbrdf-<name>.safetensors`` for each name of SHIPPED.
+"""
+
+import json
+from pathlib import Path
+
+import torch
+from safetensors import SafetensorError
+from safetensors.torch import load_file, save_file
+from safetensors import safe_open
+
+from render.atomic_files import atomic_path
+from render.errors import InputError
+from train.checkpoints import checkpoint_files, load_checkpoint, load_weights
+from train.networks import NetworkConfig, SVBRDFNet
+
+FORMAT = "sa-svbrdf model 1"
+MODELS = Path(__file__).resolve().parent.parent / "models"
+SHIPPED = ("general", "wood", "plastic", "metal")
+"""The general network (every class) and one network per class, as the paper trains."""
+
+
+def shipped_model_path(name):
+    """The file of shipped model ``name`` (one of SHIPPED)."""
+    if name not in SHIPPED:
+        raise ValueError(f"unknown model class '{name}' (expected one of {', '.join(SHIPPED)})")
+    path = MODELS / f"svbrdf-{name}.safetensors"
+    if not path.is_file():
+        raise InputError(path, "shipped model file missing from this installation")
+    return path
+
+
+def save_model(net, path, metadata):
+    """Write ``net``'s weights (floats as float16) and ``metadata`` (str -> JSON-able) as a
+    shipped model file, atomically."""
+    tensors = {name: (value.half() if value.is_floating_point() else value).contiguous().cpu()
+               for name, value in net.state_dict().items()}
+    header = {"format": FORMAT, "network": json.dumps(vars(net.config))}
+    header |= {key: value if isinstance(value, str) else json.dumps(value)
+               for key, value in metadata.items()}
+    with atomic_path(Path(path)) as tmp:
+        save_file(tensors, str(tmp), metadata=header)
+
+
+def model_metadata(path):
+    """The metadata dict (str -> str) of a shipped model file."""
+    try:
+        with safe_open(str(path), framework="pt") as file:
+            return file.metadata() or {}
+    except (SafetensorError, OSError, ValueError) as error:
+        raise InputError(path, f"cannot read safetensors file ({error})") from None
+
+
+def load_network(path, device="cpu"):
+    """The SVBRDF-net of a shipped model, checkpoint or run folder, in evaluation mode and
+    float32 on ``device``; ``net.source`` names the file it came from."""
+    path = Path(path)
+    if path.is_dir():
+        newest = checkpoint_files(path / "checkpoints")
+        if not newest:
+            raise InputError(path, "run folder without checkpoints")
+        path = newest[-1]
+    if path.suffix == ".safetensors":
+        net = _shipped_network(path)
+    else:
+        state = load_checkpoint(path)
+        try:
+            network = NetworkConfig(**state["config"]["network"])
+        except (KeyError, TypeError) as error:
+            raise InputError(path, f"checkpoint has no valid configuration ({error})") from None
+        net = SVBRDFNet(network)
+        load_weights(net, state, path)
+    net.source = str(path)
+    return net.to(device).eval()
+
+
+def _shipped_network(path):
+    if not path.is_file():
+        raise InputError(path, "model file not found")
+    metadata = model_metadata(path)
+    if metadata.get("format") != FORMAT:
+        raise InputError(path, f"not an sa-svbrdf model (expected format '{FORMAT}')")
+    try:
+        net = SVBRDFNet(NetworkConfig(**json.loads(metadata["network"])))
+    except (KeyError, TypeError, ValueError) as error:
+        raise InputError(path, f"model has no valid network configuration ({error})") from None
+    weights = {name: value.float() if value.is_floating_point() else value
+               for name, value in load_file(str(path)).items()}
+    load_weights(net, {"model": weights}, path)
+    return net
