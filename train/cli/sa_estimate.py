@@ -1,0 +1,31 @@
+"""Command line of ``sa-estimate``: parse options, build an EstimateConfig, call run(cfg)."""
+
+import json
+
+import click
+
+from render.common.errors import InputError
+from train.estimate import DEFAULT_PROBE, EstimateConfig, run
+
+
+@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("photos", nargs=-1, required=True, type=click.Path())
+@click.option("--model", required=True, type=click.Path(),
+              help="sa-train checkpoint (.pt), or a run folder (its newest checkpoint).")
+@click.option("--out", required=True, type=click.Path(), help="Output folder.")
+@click.option("--probe", type=click.Path(), default=str(DEFAULT_PROBE), show_default=True,
+              help="HDR probe of the relit preview and the Mitsuba scene.")
+@click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
+def main(**options):
+    """Estimate the reduced SVBRDF of each PHOTO."""
+    cfg = EstimateConfig(**options)
+    try:
+        reports = run(cfg)
+    except (InputError, ValueError) as error:
+        raise click.ClickException(str(error)) from None
+    for report in reports:
+        click.echo(json.dumps(report))
+
+
+if __name__ == "__main__":
+    main()
