@@ -13,8 +13,8 @@ from pathlib import Path
 
 import click
 
-from render.materials import write_material
-from render.procedural.material_set import GENERATORS, draw_metadata, regenerate
+from render.materials.procedural.material_set import GENERATORS, draw_metadata, regenerate
+from render.materials.reduced_svbrdf import write_material
 
 
 @click.command()

@@ -16,10 +16,10 @@ from pathlib import Path
 import click
 import numpy as np
 
-from render.exposure import exposure_scale
-from render.materials import find_materials, load_material, resample
-from render.probes import find_probes, load_probe
-from render.scene import PlanarSampleRenderer
+from render.common.exposure import exposure_scale
+from render.common.probes import find_probes, load_probe
+from render.materials.reduced_svbrdf import find_materials, load_material, resample
+from render.mitsuba_reference.scene import PlanarSampleRenderer
 
 REPO = Path(__file__).resolve().parent.parent
 SHARED = REPO.parent / "shared" / "data"

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import click
 
-from render.dataset import DatasetConfig, run
+from render.dataset.generator import DatasetConfig, run
 from train.checkpoints import checkpoint_files, load_checkpoint
 
 REPO = Path(__file__).resolve().parent.parent
@@ -50,8 +50,8 @@ def ray_start_seconds(cpus):
 
 def training_steps_per_second(dataset, out, processes, steps_per_log):
     launcher = ([sys.executable, "-m", "torch.distributed.run", "--nproc_per_node",
-                 str(processes), "-m", "train.cli"] if processes > 1
-                else [sys.executable, "-m", "train.cli"])
+                 str(processes), "-m", "train.cli.sa_train"] if processes > 1
+                else [sys.executable, "-m", "train.cli.sa_train"])
     command = [*launcher, "--dataset", str(dataset), "--out", str(out), "--probes",
                str(REPO / "probes"), "--network", "small", "--batch-size", "16",
                "--labeled-epochs", "1", "--self-augmented-epochs", "0",

@@ -22,18 +22,18 @@ import click
 import numpy as np
 import torch
 
-from render.exposure import expose
-from render.materials import find_materials, load_material
-from render.probes import find_probes, load_probe
-from render.renderer_check import psnr, square_crop
-from render.torch_renderer import ProbeBank, render
+from render.common.exposure import expose_numpy
+from render.common.probes import find_probes, load_probe
+from render.materials.reduced_svbrdf import find_materials, load_material
+from render.torch_renderer.check import psnr, square_crop
+from render.torch_renderer.renderer import ProbeBank, render
 
 REPO = Path(__file__).resolve().parent.parent
 SHARED = REPO.parent / "shared" / "data"
 
 
 def worst_psnr(images, references):
-    return min(psnr(expose(a)[0], expose(b)[0]) for a, b in zip(images, references))
+    return min(psnr(expose_numpy(a)[0], expose_numpy(b)[0]) for a, b in zip(images, references))
 
 
 @click.command()
@@ -86,7 +86,7 @@ def main(batch, size, repeats, device, compare, reference_spp, shared, seed):
                   torch_images_per_second=round(batch / torch_seconds, 2))
 
     if compare:
-        from render.scene import PlanarSampleRenderer
+        from render.mitsuba_reference.scene import PlanarSampleRenderer
 
         ours = images[:compare].permute(0, 2, 3, 1).cpu().numpy()
         mitsuba = PlanarSampleRenderer(spp=reference_spp)

@@ -6,7 +6,7 @@
 
 import click
 
-from render.errors import InputError
+from render.common.errors import InputError
 from train.model_files import load_network, save_model
 
 

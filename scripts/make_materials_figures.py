@@ -26,15 +26,17 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from render.color import luminance  # noqa: E402
-from render.exposure import expose  # noqa: E402
-from render.material_sheet import write_material_sheet  # noqa: E402
-from render.materials import ALPHA_RANGE, find_materials, load_material, resample  # noqa: E402
-from render.probes import load_probe  # noqa: E402
-from render.procedural.augment import material_class_of  # noqa: E402
-from render.procedural.material_set import GENERATORS, draw_metadata, regenerate  # noqa: E402
-from render.procedural.palette import measured_materials  # noqa: E402
-from render.scene import PlanarSampleRenderer  # noqa: E402
+from render.common.color import luminance  # noqa: E402
+from render.common.exposure import expose_numpy  # noqa: E402
+from render.common.probes import load_probe  # noqa: E402
+from render.materials.material_sheet import write_material_sheet  # noqa: E402
+from render.materials.procedural.augment import material_class_of  # noqa: E402
+from render.materials.procedural.material_set import (GENERATORS, draw_metadata,  # noqa: E402
+                                                      regenerate)
+from render.materials.procedural.palette import measured_materials  # noqa: E402
+from render.materials.reduced_svbrdf import (ALPHA_RANGE, find_materials,  # noqa: E402
+                                             load_material, resample)
+from render.mitsuba_reference.scene import PlanarSampleRenderer  # noqa: E402
 
 CLASS_COLORS = {"wood": "tab:brown", "plastic": "tab:blue", "metal": "tab:gray"}
 
@@ -68,7 +70,7 @@ def _real_sheet(path, real, probe, spp):
     renderer = PlanarSampleRenderer(spp=spp)
     squares = [replace(small, albedo=small.albedo[:256, :256], normal=small.normal[:256, :256])
                for small in (resample(svbrdf, 256) for svbrdf in real)]
-    renders = [expose(renderer.render(s, probe))[0] for s in tqdm(squares, desc="real sets")]
+    renders = [expose_numpy(renderer.render(s, probe))[0] for s in tqdm(squares, desc="real sets")]
     write_material_sheet(path, squares, renders)
 
 

@@ -21,7 +21,7 @@ GENERAL_SEEDS="0 2 3"  # the general network: 150 sets per class (it loads them 
 mkdir -p "$WORK/maps/general" "$OUT_DIR"
 for class in wood plastic metal; do
     for seed in $SEEDS; do
-        "$PY" -m render.make_materials --class "$class" --count "$SETS_PER_SEED" --seed "$seed" \
+        "$PY" -m render.cli.make_materials --class "$class" --count "$SETS_PER_SEED" --seed "$seed" \
             --resolution 512 --out "$WORK/sets/$class-$seed" > "$WORK/sets-$class-$seed.log" 2>&1 &
     done
 done
@@ -39,7 +39,7 @@ for set in "$REAL"/*/; do ln -sfn "$(realpath "$set")" "$WORK/maps/general/"; do
 for name in $NAMES; do
     init=()
     if [ -n "${INIT:-}" ]; then init=(--init-from "$INIT/svbrdf-$name.safetensors"); fi
-    OMP_NUM_THREADS=4 timeout "$((MINUTES * 60))" "$PY" -m train.cli "${init[@]}" \
+    OMP_NUM_THREADS=4 timeout "$((MINUTES * 60))" "$PY" -m train.cli.sa_train "${init[@]}" \
         --labeled-maps "$WORK/maps/$name" --probes "$PROBES" --out "$WORK/runs/$name" \
         --network compact --labeled-epochs 100 --self-augmented-epochs 0 --lr-gamma 1e-3 \
         --learning-rate "$LEARNING_RATE" \

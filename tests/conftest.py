@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from render.images import write_exr
+from render.common.images import write_exr
 
 REPO = Path(__file__).resolve().parent.parent
 SHARED_DATA = REPO.parent / "shared" / "data"
@@ -19,14 +19,14 @@ needs_shared = pytest.mark.skipif(not SHARED_DATA.is_dir(),
 
 @pytest.fixture(scope="session")
 def mi():
-    from render.mitsuba_setup import load_mitsuba
+    from render.mitsuba_reference.loading import load_mitsuba
 
     return load_mitsuba("llvm_ad_rgb")
 
 
 @pytest.fixture(scope="session")
 def renderer(mi):
-    from render.scene import PlanarSampleRenderer
+    from render.mitsuba_reference.scene import PlanarSampleRenderer
 
     return PlanarSampleRenderer("llvm_ad_rgb", spp=256)
 

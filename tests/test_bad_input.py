@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from render.cli import main
-from render.errors import InputError
-from render.materials import load_material
-from render.probes import load_probe
+from render.cli.render_dataset import main
+from render.common.errors import InputError
+from render.common.probes import load_probe
+from render.materials.reduced_svbrdf import load_material
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, make_material, make_probe, write_png
 
 

@@ -6,13 +6,15 @@ import pytest
 import torch
 from click.testing import CliRunner
 
-from render.color import REC709_LUMINANCE
-from render.probes import find_probes, load_probe
-from render.torch_renderer import ProbeBank, expose, render, sphere_normals
+from render.common.color import REC709_LUMINANCE
+from render.common.exposure import expose
+from render.common.probes import find_probes, load_probe
+from render.torch_renderer.renderer import ProbeBank, render, sphere_normals
 from tests.conftest import BUNDLED_PROBES
 from train import brdf_space
 from train.brdf_validation import (CONFIGURATIONS, SphereRenderer, ValidationConfig,
-                                   from_targets, main, make_renderer, ratio_table)
+                                   from_targets, make_renderer, ratio_table)
+from train.cli.sa_validate import main
 
 
 def test_search_space_and_patterns():

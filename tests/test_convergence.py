@@ -4,11 +4,11 @@ render with 16 times the samples (auto-exposed, clamped images), on the bundled 
 import numpy as np
 import pytest
 
-from render.dataset import DatasetConfig
-from render.exposure import exposure_scale
-from render.materials import load_material, resample
-from render.probes import load_probe
-from render.scene import PlanarSampleRenderer
+from render.common.exposure import exposure_scale
+from render.common.probes import load_probe
+from render.dataset.generator import DatasetConfig
+from render.materials.reduced_svbrdf import load_material, resample
+from render.mitsuba_reference.scene import PlanarSampleRenderer
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES
 
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from render.cli import main
-from render.crops import relative_labels, rotate_quarter_turns
+from render.cli.render_dataset import main
+from render.common.labels import relative_labels, rotate_quarter_turns
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO, SHARED_DATA, needs_shared
 
 TINY = ["--resolution", "24", "--render-size", "32", "--rotations", "2", "--crops", "2",
@@ -90,8 +90,8 @@ def test_a_local_ray_cluster_renders_byte_identical_files(reference_dataset, tmp
     """render-dataset --ray on a Ray instance of 2 worker CPUs, chunks of 3 tasks, against the
     one-process reference: same index, same bytes in every sample and task marker."""
     out, index = reference_dataset
-    command = [sys.executable, "-m", "render.cli", "--probes", str(BUNDLED_PROBES), "--svbrdfs",
-               str(BUNDLED_MATERIALS), "--out", str(tmp_path / "ds"), *TINY,
+    command = [sys.executable, "-m", "render.cli.render_dataset", "--probes", str(BUNDLED_PROBES),
+               "--svbrdfs", str(BUNDLED_MATERIALS), "--out", str(tmp_path / "ds"), *TINY,
                "--test-materials", "0.34", "--test-probes", "0.34", "--ray", "--workers", "2",
                "--ray-chunk", "3"]
     result = subprocess.run(command, cwd=REPO, capture_output=True, text=True)
@@ -116,8 +116,8 @@ def test_resume_after_kill_9(reference_dataset, tmp_path):
     """Kill a run as soon as its first task is written, re-run: same files as uninterrupted."""
     out, _ = reference_dataset
     partial = tmp_path / "ds"
-    command = [sys.executable, "-m", "render.cli", "--probes", str(BUNDLED_PROBES), "--svbrdfs",
-               str(BUNDLED_MATERIALS), "--out", str(partial), *TINY,
+    command = [sys.executable, "-m", "render.cli.render_dataset", "--probes", str(BUNDLED_PROBES),
+               "--svbrdfs", str(BUNDLED_MATERIALS), "--out", str(partial), *TINY,
                "--test-materials", "0.34", "--test-probes", "0.34"]
     process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL)

@@ -9,14 +9,15 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from render.cli import main as render_dataset
-from render.make_materials import main as make_materials
-from render.materials import ALPHA_RANGE, MIN_DIFFUSE_ALBEDO, ReducedSVBRDF, load_material
-from render.procedural.augment import augment, material_class_of, sample_augmentation
-from render.procedural.material_set import GENERATORS, draw_metadata, regenerate
-from render.procedural.noise import cellular, gaussian_noise
-from render.procedural.palette import measured, plastics
-from render.procedural.surface import height_to_normal
+from render.cli.make_materials import main as make_materials
+from render.cli.render_dataset import main as render_dataset
+from render.materials.procedural.augment import augment, material_class_of, sample_augmentation
+from render.materials.procedural.material_set import GENERATORS, draw_metadata, regenerate
+from render.materials.procedural.noise import cellular, gaussian_noise
+from render.materials.procedural.palette import measured, plastics
+from render.materials.procedural.surface import height_to_normal
+from render.materials.reduced_svbrdf import (ALPHA_RANGE, MIN_DIFFUSE_ALBEDO, ReducedSVBRDF,
+                                             load_material)
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, SHARED_DATA, needs_shared
 
 CLASSES = sorted(GENERATORS)

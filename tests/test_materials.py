@@ -5,9 +5,9 @@ import json
 import numpy as np
 import pytest
 
-from render.color import srgb_to_linear
-from render.map_names import is_directx_normal, map_role
-from render.materials import ALPHA_RANGE, MIN_DIFFUSE_ALBEDO, load_material, resample
+from render.common.color import srgb_to_linear
+from render.materials.map_names import is_directx_normal, map_role
+from render.materials.reduced_svbrdf import ALPHA_RANGE, MIN_DIFFUSE_ALBEDO, load_material, resample
 from tests.conftest import BUNDLED_MATERIALS, SHARED_DATA, make_material, needs_shared, write_png
 
 

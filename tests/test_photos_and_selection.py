@@ -4,8 +4,8 @@ unlabeled subset."""
 import numpy as np
 import pytest
 
-from render.errors import InputError
-from render.images import write_exr
+from render.common.errors import InputError
+from render.common.images import write_exr
 from tests.conftest import write_png
 from train.photos import read_photo
 from train.unlabeled_selection import color_bins, select_matching

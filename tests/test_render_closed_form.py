@@ -7,8 +7,8 @@ means, about 1% per pixel), plus float16-free float32 arithmetic.
 import numpy as np
 import pytest
 
-from render.materials import ReducedSVBRDF
-from render.probes import Probe, load_probe, plane_irradiance
+from render.common.probes import Probe, load_probe, plane_irradiance
+from render.materials.reduced_svbrdf import ReducedSVBRDF
 from tests.conftest import BUNDLED_PROBES, make_probe
 
 SIZE = 16

@@ -5,8 +5,8 @@ import pytest
 import torch
 from click.testing import CliRunner
 
-from render.exposure import expose as expose_numpy
-from render.torch_renderer import ProbeBank, expose, render, sphere_normals
+from render.common.exposure import expose, expose_numpy
+from render.torch_renderer.renderer import ProbeBank, render, sphere_normals
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES
 
 ROUGHNESS = [0.02, 0.05, 0.1, 0.2, 0.5, 1.0]
@@ -147,7 +147,7 @@ def test_check_renderer_agrees_with_mitsuba_on_bundled_data(tmp_path, mi):
     """CI's run of check-renderer: every bundled material with every bundled probe, at 32x32,
     the brightest specular albedo in half the cases; at least 40 dB everywhere, and the HDR
     images within 1% relative MSE."""
-    from render.renderer_check import compare
+    from render.torch_renderer.check import compare
 
     report = compare(BUNDLED_PROBES, BUNDLED_MATERIALS, size=32, spp=1024, roughness=ROUGHNESS,
                      out=tmp_path, progress=False)
@@ -158,7 +158,7 @@ def test_check_renderer_agrees_with_mitsuba_on_bundled_data(tmp_path, mi):
 
 
 def test_check_renderer_command_fails_over_its_threshold(tmp_path, mi):
-    from render.renderer_check import main
+    from render.cli.check_renderer import main
 
     args = ["--probes", str(BUNDLED_PROBES), "--svbrdfs", str(BUNDLED_MATERIALS),
             "--size", "16", "--spp", "64", "--roughness", "0.3"]

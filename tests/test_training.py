@@ -9,15 +9,15 @@ import pytest
 import torch
 from click.testing import CliRunner
 
-from render.cli import main as render_dataset
-from render.materials import load_material
-from render.probes import find_probes, load_probe
-from render.scene import PlanarSampleRenderer
-from render.torch_renderer import ProbeBank
+from render.cli.render_dataset import main as render_dataset
+from render.common.probes import find_probes, load_probe
+from render.materials.reduced_svbrdf import load_material
+from render.mitsuba_reference.scene import PlanarSampleRenderer
+from render.torch_renderer.renderer import ProbeBank
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO, write_png
 from train.checkpoints import checkpoint_files, load_checkpoint
-from train.cli import main as sa_train
-from train.estimate import main as sa_estimate
+from train.cli.sa_estimate import main as sa_estimate
+from train.cli.sa_train import main as sa_train
 from train.networks import NetworkConfig, SVBRDFNet
 from train.schedule import LABELED, SELF_AUGMENTED, Schedule
 from train.self_augmentation import random_lightings, self_augmented_batch
@@ -182,7 +182,7 @@ def test_self_augmented_minibatch_is_a_valid_labeled_pair():
 
 def test_training_and_estimation_do_not_import_mitsuba():
     """Training runs on GPU machines without libLLVM: train/ imports Mitsuba nowhere."""
-    code = ("import sys, train.cli, train.estimate; "
+    code = ("import sys, train.cli.sa_estimate, train.cli.sa_train, train.cli.sa_validate; "
             "assert 'mitsuba' not in sys.modules and 'drjit' not in sys.modules")
     result = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
                             text=True)
@@ -192,8 +192,9 @@ def test_training_and_estimation_do_not_import_mitsuba():
 def torchrun(dataset, out, processes, *options):
     """sa-train under ``torchrun --nproc_per_node processes`` (gloo on the CPU)."""
     command = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node",
-               str(processes), "-m", "train.cli", "--dataset", str(dataset), "--out", str(out),
-               "--probes", str(BUNDLED_PROBES), *TINY_NETWORK, "--batch-size", "8", *options]
+               str(processes), "-m", "train.cli.sa_train", "--dataset", str(dataset), "--out",
+               str(out), "--probes", str(BUNDLED_PROBES), *TINY_NETWORK, "--batch-size", "8",
+               *options]
     return subprocess.run(command, cwd=REPO, capture_output=True, text=True)
 
 

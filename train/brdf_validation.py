@@ -2,9 +2,9 @@
 
 Task: a monochrome image of a sphere of one homogeneous Ward BRDF under a monochrome probe ->
 ``(log(diffuse / specular), log(alpha))`` (train.brdf_space). Spheres are rendered with the
-torch renderer (``render.torch_renderer.sphere_normals``); probes are reduced to their Rec. 709
-luminance; each image is auto-exposed and clamped like the dataset's, so only the ratio of the
-albedos is observable.
+torch renderer (``render.torch_renderer.renderer.sphere_normals``); probes are reduced to their
+Rec. 709 luminance; each image is auto-exposed and clamped like the dataset's, so only the
+ratio of the albedos is observable.
 
 A *lighting* is a (probe, rotation) pair; ``lightings`` of them are drawn once per run. Each
 labeled BRDF is seen under lightings drawn from that set; each unlabeled BRDF, and each test
@@ -21,14 +21,12 @@ the MSE of the two predicted values.
 
 import csv
 import dataclasses
-import json
 import logging
 import time
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
-import click
 import matplotlib
 
 matplotlib.use("Agg")
@@ -37,11 +35,11 @@ from matplotlib.colors import LogNorm  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
-from render.atomic_files import atomic_path, write_json  # noqa: E402
-from render.color import REC709_LUMINANCE  # noqa: E402
-from render.errors import InputError  # noqa: E402
-from render.probes import find_probes, load_probe  # noqa: E402
-from render.torch_renderer import ProbeBank, expose, render, sphere_normals  # noqa: E402
+from render.common.atomic_files import atomic_path, write_json  # noqa: E402
+from render.common.color import luminance  # noqa: E402
+from render.common.exposure import expose  # noqa: E402
+from render.common.probes import find_probes, load_probe  # noqa: E402
+from render.torch_renderer.renderer import ProbeBank, render, sphere_normals  # noqa: E402
 from train import brdf_space  # noqa: E402
 from train.networks import NetworkConfig, HomogeneousNet  # noqa: E402
 from train.optimization import OptimizerConfig, make_optimizer  # noqa: E402
@@ -115,7 +113,7 @@ class SphereRenderer:
         self.alpha_levels = ALPHA_LEVELS if alpha_levels is None else np.asarray(alpha_levels)
         self.log_levels = torch.as_tensor(np.log(self.alpha_levels), dtype=torch.float32)
         radiances = [load_probe(path).radiance for path in probe_files]
-        gray = [np.repeat(r @ REC709_LUMINANCE, 3).reshape(r.shape) for r in radiances]
+        gray = [np.repeat(luminance(r), 3).reshape(r.shape) for r in radiances]
         probes = ProbeBank(gray, device=device)
         normal, self.mask = sphere_normals(size, device=device)
         count = len(lightings)
@@ -355,34 +353,3 @@ def _plot_heat_maps(path, results, seed):
     with atomic_path(path) as tmp:
         figure.savefig(tmp, format="png", dpi=100)
     plt.close(figure)
-
-
-@click.command(context_settings={"help_option_names": ["-h", "--help"]})
-@click.option("--probes", required=True, type=click.Path(), help="Folder of HDR probes.")
-@click.option("--out", required=True, type=click.Path(), help="Output folder.")
-@click.option("--config", "configuration", type=click.Choice(list(CONFIGURATIONS)),
-              default="full", show_default=True, help="Sizes: full (GPU), small (CPU), toy.")
-@click.option("--patterns", default=",".join(PATTERNS), show_default=True,
-              help="Comma-separated labeled sets besides dense.")
-@click.option("--ratio-table", "ratio_table_too", is_flag=True,
-              help="Also the labeled-unlabeled ratio table (55 more runs).")
-@click.option("--seed", default=0, show_default=True)
-@click.option("--device", default="cpu", show_default=True)
-def main(probes, out, configuration, patterns, ratio_table_too, seed, device):
-    """Validate self-augmentation on BRDF-net, as in the paper."""
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
-    cfg = ValidationConfig(probes=probes, out=out, seed=seed, device=device,
-                           **CONFIGURATIONS[configuration])
-    click.echo(json.dumps(dataclasses.asdict(cfg), indent=2))
-    try:
-        _, renderer = run(cfg, tuple(p for p in patterns.split(",") if p))
-        click.echo((Path(out) / "table.md").read_text())
-        if ratio_table_too:
-            ratio_table(cfg, renderer)
-            click.echo((Path(out) / "ratio_table.md").read_text())
-    except (InputError, ValueError) as error:
-        raise click.ClickException(str(error)) from None
-
-
-if __name__ == "__main__":
-    main()

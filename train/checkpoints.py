@@ -13,8 +13,8 @@ from pathlib import Path
 
 import torch
 
-from render.atomic_files import atomic_path
-from render.errors import InputError
+from render.common.atomic_files import atomic_path
+from render.common.errors import InputError
 
 FORMAT = "sa-svbrdf checkpoint 2"
 """Version 2: the albedo network ends in a softplus (version 1: a sigmoid)."""

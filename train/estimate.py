@@ -7,35 +7,36 @@ network's input size) it writes a folder ``OUT/<photo stem>/`` holding:
     normal.exr, normal.png     unit normals encoded (n + 1) / 2, OpenGL convention
     material.json              relative specular albedo and Ward roughness, photo, model: the
                                folder is a material folder that render-dataset reads
-    scene.xml                  a Mitsuba scene rendering the estimate (render.scene_file)
+    scene.xml                  a Mitsuba scene rendering the estimate
+                               (render.mitsuba_reference.scene_file)
     preview.png                photo | albedo | normals | the estimate relit under ``probe``
                                (torch renderer, auto-exposed), a probe unrelated to the photo
 
-and ``OUT/report.html``, a page of all the previews with the estimated parameters. It
-prints a JSON line per photo with the milliseconds the network took. Every photo is read
-and checked before anything is written; an existing output folder is refused.
+and ``OUT/report.html``, a page of all the previews with the estimated parameters. The
+command prints a JSON line per photo with the milliseconds the network took. Every photo is
+read and checked before anything is written; an existing output folder is refused.
 """
 
 import html
-import json
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import quote
 
-import click
 import numpy as np
 import torch
 from PIL import Image
 
-from render.atomic_files import atomic_path
-from render.color import to_png_bytes
-from render.errors import InputError
-from render.images import write_png
-from render.materials import ReducedSVBRDF, write_material
-from render.probes import load_probe
-from render.scene_file import write_scene_file
-from render.torch_renderer import ProbeBank, expose, render
-from train.model_files import SHIPPED, load_network, shipped_model_path
+from render.common.atomic_files import atomic_path
+from render.common.color import to_png_bytes
+from render.common.errors import InputError
+from render.common.exposure import expose
+from render.common.images import write_png
+from render.common.probes import load_probe
+from render.materials.reduced_svbrdf import ReducedSVBRDF, write_material
+from render.mitsuba_reference.scene_file import write_scene_file
+from render.torch_renderer.renderer import ProbeBank, render
+from train.model_files import load_network
 from train.photos import read_photo
 
 REPO = Path(__file__).resolve().parent.parent
@@ -54,47 +55,48 @@ def estimate(net, photo):
                          specular.astype(np.float32), roughness)
 
 
-@click.command(context_settings={"help_option_names": ["-h", "--help"]})
-@click.argument("photos", nargs=-1, required=True, type=click.Path())
-@click.option("--model", type=click.Path(), default=None,
-              help="A model file (.safetensors), an sa-train checkpoint (.pt) or a run folder "
-                   "(its newest checkpoint). Default: the shipped network of --class.")
-@click.option("--class", "material_class", type=click.Choice(SHIPPED), default="general",
-              show_default=True, help="Shipped network to use when no --model is given.")
-@click.option("--out", required=True, type=click.Path(), help="Output folder.")
-@click.option("--probe", type=click.Path(), default=str(DEFAULT_PROBE), show_default=True,
-              help="HDR probe of the relit preview and the Mitsuba scene.")
-@click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
-def main(photos, model, material_class, out, probe, device):
-    """Estimate the reduced SVBRDF of each PHOTO."""
-    try:
-        model = model or shipped_model_path(material_class)
-        net = load_network(model, torch.device(device))
-        size = net.config.input_size
-        inputs = [read_photo(path, size) for path in photos]
-        stems = [Path(path).stem for path in photos]
-        if len(set(stems)) != len(stems):
-            raise InputError(photos[0], "two photos share a file name stem (output folders)")
-        preview_probe = load_probe(probe)
-        bank = ProbeBank([preview_probe.radiance])  # previews render on the CPU
-        reports = []
-        for path, photo, stem in zip(photos, inputs, stems):
-            start = time.perf_counter()
-            svbrdf = estimate(net, photo)
-            milliseconds = 1000.0 * (time.perf_counter() - start)
-            folder = Path(out) / stem
-            write_material(folder, ReducedSVBRDF(stem, svbrdf.albedo, svbrdf.normal,
-                                                 svbrdf.specular, svbrdf.roughness),
-                           {"photo": str(Path(path).resolve()), "model": str(Path(model))})
-            _write_pictures(folder, photo, svbrdf, bank, preview_probe)
-            reports.append({"photo": str(path), "out": str(folder),
-                            "network_ms": round(milliseconds, 1),
-                            "specular_albedo": svbrdf.specular.tolist(),
-                            "roughness": svbrdf.roughness})
-            click.echo(json.dumps(reports[-1]))
-        _write_report(Path(out) / "report.html", reports)
-    except (InputError, ValueError) as error:
-        raise click.ClickException(str(error)) from None
+@dataclass(frozen=True)
+class EstimateConfig:
+    photos: tuple
+    """Photo files (PNG, JPEG, TIFF, BMP, EXR, HDR), read by train.photos.read_photo."""
+    model: str
+    """A model file (.safetensors), an sa-train checkpoint (.pt) or a run folder (its newest
+    checkpoint); train.model_files reads each without executing code."""
+    out: str
+    """Output folder: a folder per photo and report.html."""
+    probe: str = str(DEFAULT_PROBE)
+    """HDR probe of the relit preview and the Mitsuba scene."""
+    device: str = "cpu"
+    """torch device of the network (cpu, cuda); previews render on the CPU."""
+
+
+def run(cfg):
+    """Estimate the reduced SVBRDF of each photo of ``cfg`` and write the outputs; returns a
+    report per photo (its output folder, network milliseconds and parameters)."""
+    net = load_network(cfg.model, torch.device(cfg.device))
+    size = net.config.input_size
+    inputs = [read_photo(path, size) for path in cfg.photos]
+    stems = [Path(path).stem for path in cfg.photos]
+    if len(set(stems)) != len(stems):
+        raise InputError(cfg.photos[0], "two photos share a file name stem (output folders)")
+    preview_probe = load_probe(cfg.probe)
+    bank = ProbeBank([preview_probe.radiance])  # previews render on the CPU
+    reports = []
+    for path, photo, stem in zip(cfg.photos, inputs, stems):
+        start = time.perf_counter()
+        svbrdf = estimate(net, photo)
+        milliseconds = 1000.0 * (time.perf_counter() - start)
+        folder = Path(cfg.out) / stem
+        write_material(folder, ReducedSVBRDF(stem, svbrdf.albedo, svbrdf.normal,
+                                             svbrdf.specular, svbrdf.roughness),
+                       {"photo": str(Path(path).resolve()), "model": str(Path(cfg.model))})
+        _write_pictures(folder, photo, svbrdf, bank, preview_probe)
+        reports.append({"photo": str(path), "out": str(folder),
+                        "network_ms": round(milliseconds, 1),
+                        "specular_albedo": svbrdf.specular.tolist(),
+                        "roughness": svbrdf.roughness})
+    _write_report(Path(cfg.out) / "report.html", reports)
+    return reports
 
 
 def _write_report(path, reports):
@@ -126,6 +128,3 @@ def _write_pictures(folder, photo, svbrdf, bank, probe):
     with atomic_path(folder / "preview.png") as tmp:
         Image.fromarray(np.concatenate(panels, axis=1)).save(tmp, "PNG")
 
-
-if __name__ == "__main__":
-    main()

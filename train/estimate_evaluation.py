@@ -41,12 +41,12 @@ import torch  # noqa: E402
 from PIL import Image  # noqa: E402
 from torch.nn import functional
 
-from render.atomic_files import atomic_path
-from render.color import REC709_LUMINANCE, linear_to_srgb
-from render.errors import InputError
-from render.exposure import DEFAULT_KEY
-from render.probes import find_probes, load_probe
-from render.torch_renderer import ProbeBank, render
+from render.common.atomic_files import atomic_path
+from render.common.color import linear_to_srgb
+from render.common.errors import InputError
+from render.common.exposure import expose
+from render.common.probes import find_probes, load_probe
+from render.torch_renderer.renderer import ProbeBank, render
 from train.estimate import estimate
 from train.labeled_dataset import LabeledDataset
 from train.map_samples import MapSampler
@@ -164,13 +164,6 @@ def relit_under(parameters, bank, probe_index, rotation_deg):
                   bank, probe_index, rotation_deg)
 
 
-def exposed_like(hdr, reference_hdr):
-    """``hdr`` scaled by the auto-exposure of ``reference_hdr`` (per image), clamped."""
-    weights = torch.as_tensor(REC709_LUMINANCE, dtype=hdr.dtype, device=hdr.device)[:, None, None]
-    mean = (reference_hdr * weights).sum(1).mean((1, 2))
-    return (hdr * (DEFAULT_KEY / mean)[:, None, None, None]).clamp(0.0, 1.0)
-
-
 def sample_errors(estimate_, truth, relit_estimate, relit_truth):
     """The errors of the module docstring, as floats."""
     cosine = (estimate_["normal"] * truth["normal"]).sum(1).clamp(-1.0, 1.0)
@@ -221,19 +214,19 @@ def run(cfg, net):
             probe_index, rotation = novel_lightings(np.random.default_rng([cfg.seed, 2, i]),
                                                     own_probe, probe_names, held_out,
                                                     cfg.relights)
-            relit_truth = relit_under(truth, bank, probe_index, rotation)
+            truth_hdr = relit_under(truth, bank, probe_index, rotation)
+            relit_truth = expose(truth_hdr)
             record = {"sample": name, "photo_probe": own_probe,
                       "relight_probes": [probe_names[int(p)] for p in probe_index]}
             for kind, parameters in (("model", model_estimate(net, photo)),
                                      ("naive", naive_estimate(photo))):
                 parameters = {name: value.to(cfg.device) for name, value in parameters.items()}
-                relit = exposed_like(relit_under(parameters, bank, probe_index, rotation),
-                                     relit_truth)
-                record[kind] = sample_errors(parameters, truth, relit,
-                                             exposed_like(relit_truth, relit_truth))
+                relit = expose(relit_under(parameters, bank, probe_index, rotation),
+                               reference=truth_hdr)
+                record[kind] = sample_errors(parameters, truth, relit, relit_truth)
                 if kind == "model" and i in shown:
                     figure_rows.append(figure_row(photo, parameters, truth, relit[0],
-                                                  exposed_like(relit_truth, relit_truth)[0]))
+                                                  relit_truth[0]))
             records.append(record)
     report = {"model": str(getattr(net, "source", "")),
               "data": cfg.dataset or cfg.materials, "split": cfg.split if cfg.dataset else None,

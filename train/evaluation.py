@@ -10,7 +10,7 @@ under lighting the photo was not taken under (the next probe of the bank, rotate
 import numpy as np
 import torch
 
-from render.color import linear_to_srgb
+from render.common.color import linear_to_srgb
 from train.losses import LABELS, normal_angle_deg, relit
 
 EXAMPLES = 4

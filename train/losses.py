@@ -11,7 +11,8 @@ import math
 
 import torch
 
-from render.torch_renderer import expose, render
+from render.common.exposure import expose
+from render.torch_renderer.renderer import render
 
 LABELS = ("albedo", "normal", "log_specular", "log_roughness")
 

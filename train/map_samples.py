@@ -7,7 +7,7 @@ docs/torch-renderer.md) in place of Mitsuba, so every minibatch sees new lightin
 1. a random material of the folder, its maps resampled so that their shorter side is
    ``render_size`` (as render-dataset's ``--render-size``);
 2. a random ``size`` x ``size`` crop, turned by a random quarter turn (normals turn with it);
-3. the paper's relative labels of the crop (render.crops.relative_labels);
+3. the paper's relative labels of the crop (render.common.labels.relative_labels);
 4. a render under a random probe of ``probe_choices``, at a random rotation about +z and a view
    within ``max_view_angle`` of the normal, auto-exposed and clamped to [0, 1].
 
@@ -19,10 +19,11 @@ seed.
 import numpy as np
 import torch
 
-from render.crops import relative_labels, rotate_quarter_turns
-from render.materials import find_materials, load_material, resample
-from render.torch_renderer import expose, render
-from render.views import random_view
+from render.common.exposure import expose
+from render.common.labels import relative_labels, rotate_quarter_turns
+from render.common.views import random_view
+from render.materials.reduced_svbrdf import find_materials, load_material, resample
+from render.torch_renderer.renderer import render
 
 
 class MapSampler:

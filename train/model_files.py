@@ -19,8 +19,8 @@ from safetensors import SafetensorError
 from safetensors.torch import load_file, save_file
 from safetensors import safe_open
 
-from render.atomic_files import atomic_path
-from render.errors import InputError
+from render.common.atomic_files import atomic_path
+from render.common.errors import InputError
 from train.checkpoints import checkpoint_files, load_checkpoint, load_weights
 from train.networks import NetworkConfig, SVBRDFNet
 

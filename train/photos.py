@@ -1,12 +1,12 @@
 """Photos as network input: reading, linearizing, cropping and resizing.
 
 The rule (the same for unlabeled training photos and for ``sa-estimate``):
-1. Read the file (render.images.read_image: PNG, JPEG, TIFF, BMP, EXR, HDR). Grayscale photos
+1. Read the file (render.common.images.read_image: PNG, JPEG, TIFF, BMP, EXR, HDR). Grayscale photos
    are repeated to RGB.
 2. Linearize. 8- and 16-bit files are taken as gamma-encoded and decoded with gamma 2.2, as the
    paper does for photos that are not radiometrically linear. EXR and HDR files are linear
    radiance of any scale: they are auto-exposed like the rendered training images
-   (mean Rec. 709 luminance 0.18, render.exposure).
+   (mean Rec. 709 luminance 0.18, render.common.exposure).
 3. Crop the centred square of the shorter side, and resize it to ``size`` x ``size`` (box
    filter when shrinking, bilinear when enlarging).
 4. Clamp to [0, 1].
@@ -16,9 +16,9 @@ The result is (3, size, size) float32 linear RGB, the layout of the network inpu
 import numpy as np
 from PIL import Image
 
-from render.errors import InputError
-from render.exposure import expose
-from render.images import is_hdr, read_image
+from render.common.errors import InputError
+from render.common.exposure import expose_numpy
+from render.common.images import is_hdr, read_image
 
 PHOTO_GAMMA = 2.2
 MIN_PHOTO_SIDE = 16
@@ -36,7 +36,7 @@ def read_photo(path, size):
         raise InputError(path, "photo has NaN or infinite pixels")
     if is_hdr(path):
         try:
-            pixels, _ = expose(np.maximum(pixels, 0.0))
+            pixels, _ = expose_numpy(np.maximum(pixels, 0.0))
         except ValueError as error:
             raise InputError(path, str(error)) from None
     else:

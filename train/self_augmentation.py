@@ -13,8 +13,9 @@ inverse.
 import numpy as np
 import torch
 
-from render.torch_renderer import expose, render
-from render.views import random_view
+from render.common.exposure import expose
+from render.common.views import random_view
+from render.torch_renderer.renderer import render
 from train.losses import clamp_to_valid
 
 

@@ -37,10 +37,10 @@ import torch  # noqa: E402
 from PIL import Image  # noqa: E402
 from torch.utils.tensorboard import SummaryWriter  # noqa: E402
 
-from render.atomic_files import atomic_path, write_json  # noqa: E402
-from render.errors import InputError  # noqa: E402
-from render.probes import find_probes, load_probe  # noqa: E402
-from render.torch_renderer import ProbeBank  # noqa: E402
+from render.common.atomic_files import atomic_path, write_json  # noqa: E402
+from render.common.errors import InputError  # noqa: E402
+from render.common.probes import find_probes, load_probe  # noqa: E402
+from render.torch_renderer.renderer import ProbeBank  # noqa: E402
 from train import distributed  # noqa: E402
 from train.checkpoints import checkpoint_files, load_checkpoint, save_checkpoint  # noqa: E402
 from train.evaluation import evaluate, stack_items  # noqa: E402

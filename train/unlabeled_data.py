@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from render.errors import InputError
-from render.images import IMAGE_SUFFIXES
+from render.common.errors import InputError
+from render.common.images import IMAGE_SUFFIXES
 from train.labeled_dataset import LabeledDataset
 from train.photos import read_photo
 

@@ -1,0 +1,47 @@
+"""Command line of ``check-renderer``: parse options, build a CheckConfig, call run(cfg); exit 1
+when the worst case is below the threshold."""
+
+import json
+
+import click
+
+from render.common.errors import InputError
+from render.torch_renderer.check import DEFAULT_ROUGHNESS, CheckConfig, run
+
+
+@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.option("--probes", required=True, type=click.Path(), help="Folder of HDR probes.")
+@click.option("--svbrdfs", required=True, type=click.Path(), help="Folder of material folders.")
+@click.option("--size", default=64, show_default=True, help="Image size (px).")
+@click.option("--spp", default=1024, show_default=True, help="Mitsuba samples per pixel.")
+@click.option("--roughness", default=",".join(map(str, DEFAULT_ROUGHNESS)), show_default=True,
+              help="Comma-separated Ward alphas to cycle through.")
+@click.option("--max-view-angle", default=0.0, show_default=True,
+              help="Largest random view tilt from +z (degrees).")
+@click.option("--seed", default=0, show_default=True)
+@click.option("--threshold", default=40.0, show_default=True,
+              help="Fail when any case's PSNR (dB) is below this.")
+@click.option("--out", type=click.Path(), default=None,
+              help="Write side-by-side images (Mitsuba | torch | 10x difference) and report.json.")
+def main(roughness, **options):
+    """Compare the torch renderer with converged Mitsuba renders; exit 1 over the threshold."""
+    try:
+        values = tuple(float(v) for v in roughness.split(","))
+    except ValueError:
+        raise click.BadParameter(f"not a list of numbers: {roughness}", param_hint="--roughness")
+    cfg = CheckConfig(roughness=values, **options)
+    try:
+        report = run(cfg)
+    except (InputError, ValueError) as error:
+        raise click.ClickException(str(error)) from None
+    for row in report["rows"]:
+        click.echo(f"{row['psnr_db']:7.2f} dB  rel.MSE {row['relative_mse']:.2e}  "
+                   f"alpha {row['roughness']:<5} {row['material']} / {row['probe']}")
+    click.echo(json.dumps({k: v for k, v in report.items() if k != "rows"}, indent=2))
+    if report["worst"]["psnr_db"] < cfg.threshold:
+        raise click.ClickException(
+            f"worst case {report['worst']['psnr_db']:.2f} dB is below {cfg.threshold} dB")
+
+
+if __name__ == "__main__":
+    main()

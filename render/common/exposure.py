@@ -1,0 +1,43 @@
+"""Auto-exposure and clamping: the camera model that turns an HDR render into the network input.
+
+Exposure scales the HDR image so that its mean Rec. 709 luminance equals ``key`` (average
+metering, like a camera's; 0.18 is photographic middle gray in linear terms), then clamps to
+[0, 1]. The rule is scale invariant: multiplying the HDR image (or both relative albedos) by
+any factor gives the same exposed image, which is why relative albedos can be rendered directly.
+
+The rule has two forms, side by side: ``expose_numpy`` exposes one (H, W, 3) numpy image (the
+dataset generator, photos) and also returns the scale it used; ``expose`` exposes a batch of
+(B, 3, H, W) torch tensors (the trainer's renders) on their device and in their dtype. The
+torch form uses tensor methods only, so this module does not import torch.
+"""
+
+import numpy as np
+
+from render.common.color import REC709_LUMINANCE, luminance
+
+DEFAULT_KEY = 0.18
+
+
+def exposure_scale(hdr, key=DEFAULT_KEY):
+    """Factor that maps the mean luminance of ``hdr`` (H, W, 3), linear RGB, to ``key``."""
+    mean = float(luminance(hdr).mean())
+    if not np.isfinite(mean) or mean <= 0:
+        raise ValueError(f"cannot expose an image of mean luminance {mean}")
+    return key / mean
+
+
+def expose_numpy(hdr, key=DEFAULT_KEY):
+    """(exposed image clamped to [0, 1], float32; the exposure scale used)."""
+    scale = exposure_scale(hdr, key)
+    return np.clip(hdr * scale, 0.0, 1.0).astype(np.float32), scale
+
+
+def expose(hdr, key=DEFAULT_KEY, reference=None):
+    """Auto-exposure and clamping of (B, 3, H, W) HDR torch tensors, as ``expose_numpy`` does
+    to each image: each image scaled so its mean Rec. 709 luminance is ``key``, then clamped to
+    [0, 1]. With ``reference`` (same shape), each image takes the scale that exposes its
+    reference image instead (to compare two renders under one camera setting)."""
+    metered = hdr if reference is None else reference
+    weights = metered.new_tensor(REC709_LUMINANCE)
+    mean = (metered * weights[:, None, None]).sum(1).mean((1, 2))
+    return (hdr * (key / mean)[:, None, None, None]).clamp(0, 1)

@@ -1,0 +1,194 @@
+"""``render-dataset``: labeled (photo, reduced SVBRDF) pairs rendered with Mitsuba 3.
+
+The work is split into tasks (render/dataset/tasks.py), rendered in this process, in a pool of
+worker processes or as Ray tasks (render/dataset/ray_runner.py), and written by this process as
+they come back; re-running an interrupted run renders only the tasks it had not finished.
+
+Output folder (docs/dataset-format.md):
+    config.json             the resolved configuration
+    samples/<id>.npz        image, albedo, normal, log_specular, log_roughness, provenance
+    tasks/<task>.json       written last by each task: its samples' provenance (resume marker)
+    index.json              every sample with its split and provenance, written at the end
+    contact_sheet.png       a few samples for people to look at
+"""
+
+import dataclasses
+import json
+import logging
+import multiprocessing
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from render.common.atomic_files import write_json
+from render.common.errors import InputError
+from render.common.exposure import DEFAULT_KEY
+from render.common.probes import find_probes, load_probe
+from render.dataset.contact_sheet import write_contact_sheet
+from render.dataset.tasks import TaskRenderer, plan_tasks, write_task
+from render.materials.reduced_svbrdf import find_materials, load_material
+from render.mitsuba_reference.scene import DEFAULT_SAMPLER
+
+log = logging.getLogger(__name__)
+CONTACT_SHEET_ROWS = 12
+# Changing these does not change the samples, so a resumed run may use other values.
+RESUMABLE_FIELDS = ("workers", "out", "ray", "ray_chunk", "ray_cpus_per_task")
+
+
+@dataclass(frozen=True)
+class DatasetConfig:
+    probes: str
+    """Folder of equirectangular HDR probes (.exr, .hdr)."""
+    svbrdfs: str
+    """Folder with one sub-folder per material (maps and optional material.json)."""
+    out: str
+    """Output dataset folder; re-running with the same options resumes an interrupted run."""
+    resolution: int = 256
+    """Side of each output sample in pixels."""
+    render_size: int = 512
+    """Shorter side of the rendered canvas; material maps are resampled to it."""
+    rotations: int = 9
+    """Random probe rotations (renders) per (material, probe), as in the paper."""
+    crops: int = 4
+    """Random crops (each with a random quarter turn) cut from each render."""
+    spp: int = 1024
+    """Samples per pixel of each render."""
+    sampler: str = DEFAULT_SAMPLER
+    """Mitsuba sampler plugin (stratified kinds converge much faster than 'independent')."""
+    seed: int = 0
+    """Seed of every random choice; the same seed gives the same dataset."""
+    workers: int = 1
+    """Worker processes rendering tasks in parallel (with ``ray="local"``: the CPUs of the
+    local Ray instance)."""
+    ray: str | None = None
+    """None: render on this machine. Otherwise render as Ray tasks (render/dataset/ray_runner.py)
+    on the cluster at this address (``auto``, ``HOST:6379``, ``ray://HOST:10001``), or on a
+    Ray instance started on this machine for ``local``."""
+    ray_chunk: int = 4
+    """Tasks (material, probe, rotation) per Ray task."""
+    ray_cpus_per_task: int = 1
+    """CPUs each Ray task reserves, and the Mitsuba threads it renders with."""
+    variant: str = "llvm_ad_rgb"
+    """Mitsuba variant, e.g. llvm_ad_rgb (CPU) or cuda_ad_rgb (GPU)."""
+    test_materials: float = 0.2
+    """Fraction of materials held out for the test split."""
+    test_probes: float = 0.2
+    """Fraction of probes held out for the test split (test samples pair test materials with
+    test probes; mixed pairs are not rendered)."""
+    exposure_key: float = DEFAULT_KEY
+    """Mean luminance of each exposed sample before clamping to [0, 1]."""
+    max_view_angle: float = 0.0
+    """Largest angle in degrees between the view and the normal; 0 is fronto-parallel."""
+
+    def validate(self):
+        if self.resolution < 8:
+            raise ValueError("--resolution must be at least 8")
+        if self.render_size < self.resolution:
+            raise ValueError("--render-size must be at least --resolution")
+        for name in ("rotations", "crops", "spp", "workers", "ray_chunk", "ray_cpus_per_task"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"--{name} must be at least 1")
+        if not (0 <= self.test_materials < 1 and 0 <= self.test_probes < 1):
+            raise ValueError("--test-materials and --test-probes must be in [0, 1)")
+        if not 0 <= self.max_view_angle < 90:
+            raise ValueError("--max-view-angle must be in [0, 90)")
+
+
+def validate_inputs(cfg):
+    """Load every material and probe once, so bad input fails before any rendering."""
+    materials, probes = find_materials(cfg.svbrdfs), find_probes(cfg.probes)
+    for folder in materials:
+        load_material(folder)
+    for path in probes:
+        load_probe(path)
+    return materials, probes
+
+
+def _check_resume(cfg, out):
+    """Refuse to mix samples of two different configurations in one folder."""
+    path = out / "config.json"
+    if not path.exists():
+        return
+    previous = json.loads(path.read_text())
+    current = dataclasses.asdict(cfg)
+    differing = sorted(k for k in current if k not in RESUMABLE_FIELDS
+                       and previous.get(k) != current[k])
+    if differing:
+        raise InputError(path, f"this folder holds a dataset made with other options "
+                               f"(differing: {', '.join(differing)}); use a new --out")
+
+
+_worker = None
+
+
+def _init_worker(cfg, threads):
+    global _worker
+    _worker = TaskRenderer(cfg, threads)
+
+
+def _render_in_worker(task):
+    return _worker.render(task)
+
+
+def run(cfg):
+    """Render the dataset described by ``cfg`` (resuming if ``cfg.out`` holds a partial run)."""
+    cfg.validate()
+    out = Path(cfg.out)
+    materials, probes = validate_inputs(cfg)
+    _check_resume(cfg, out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / "config.json", dataclasses.asdict(cfg))
+    for stale in [*out.glob("samples/.*.tmp*"), *out.glob("tasks/.*.tmp*")]:
+        stale.unlink()  # temporary files of a killed run; their task is redone below
+
+    tasks = plan_tasks(cfg, materials, probes)
+    pending = [t for t in tasks if not (out / "tasks" / f"{t.name}.json").exists()]
+    log.info("%d tasks (%d samples), %d already done", len(tasks), len(tasks) * cfg.crops,
+             len(tasks) - len(pending))
+    with tqdm(total=len(tasks) * cfg.crops, initial=(len(tasks) - len(pending)) * cfg.crops,
+              unit="sample", desc="render-dataset") as progress:
+        for result in render_tasks(cfg, pending):
+            progress.update(write_task(out, result))
+    return finish(cfg, tasks)
+
+
+def render_tasks(cfg, tasks):
+    """Yield the TaskResult of every task, in any order: in this process (one worker), in a
+    pool of ``workers`` local processes, or as Ray tasks when ``cfg.ray`` is set."""
+    if cfg.ray is not None:
+        from render.dataset.ray_runner import render_on_ray  # imports Ray
+
+        yield from render_on_ray(cfg, tasks)
+    elif cfg.workers == 1:
+        renderer = TaskRenderer(cfg)
+        yield from map(renderer.render, tasks)
+    else:
+        threads = max(1, (os.cpu_count() or 1) // cfg.workers)
+        context = multiprocessing.get_context("spawn")
+        with context.Pool(cfg.workers, _init_worker, (cfg, threads)) as pool:
+            yield from pool.imap_unordered(_render_in_worker, tasks)
+
+
+def finish(cfg, tasks):
+    """Write index.json and the contact sheet from the task markers; returns the index."""
+    out = Path(cfg.out)
+    samples = []
+    for task in tasks:
+        samples.extend(json.loads((out / "tasks" / f"{task.name}.json").read_text())["samples"])
+    samples.sort(key=lambda s: s["id"])
+    index = {"config": dataclasses.asdict(cfg), "count": len(samples),
+             "splits": {s: sum(r["split"] == s for r in samples) for s in ("train", "test")},
+             "samples": samples}
+    write_json(out / "index.json", index)
+    picks = np.linspace(0, len(samples) - 1, min(CONTACT_SHEET_ROWS, len(samples))).astype(int)
+    shown = []
+    for i in sorted(set(picks.tolist())):
+        with np.load(out / samples[i]["file"]) as data:
+            shown.append({k: data[k].astype(np.float32) for k in
+                          ("image", "albedo", "normal", "log_specular", "log_roughness")}
+                         | {"provenance": samples[i]})
+    write_contact_sheet(out / "contact_sheet.png", shown)
+    return index

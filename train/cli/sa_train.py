@@ -1,0 +1,75 @@
+"""Command line of ``sa-train``: parse options, build a TrainConfig, call run(cfg)."""
+
+import dataclasses
+import json
+import logging
+import os
+
+import click
+
+from render.common.errors import InputError
+from train.networks import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig
+from train.optimization import OptimizerConfig
+from train.trainer import TrainConfig, run
+
+NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_CPU_CONFIG}
+
+
+@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.option("--dataset", type=click.Path(), default=None,
+              help="render-dataset output (its test split evaluates; its train split trains "
+                   "unless --labeled-maps is given).")
+@click.option("--labeled-maps", type=click.Path(), default=None,
+              help="Material folders: labeled minibatches rendered on the fly (torch renderer).")
+@click.option("--render-size", default=512, show_default=True,
+              help="With --labeled-maps: shorter side the maps are resampled to before cropping.")
+@click.option("--epoch-samples", default=3200, show_default=True,
+              help="With --labeled-maps: labeled samples per epoch.")
+@click.option("--init-from", type=click.Path(), default=None,
+              help="Start from this model's weights (fine-tuning); same network configuration.")
+@click.option("--out", required=True, type=click.Path(), help="Run folder.")
+@click.option("--probes", required=True, type=click.Path(),
+              help="HDR probes for self-augmentation renders and relit evaluation.")
+@click.option("--unlabeled", type=click.Path(), default=None,
+              help="Unlabeled photos (or a dataset folder); without it: the baseline.")
+@click.option("--network", "network_name", type=click.Choice(sorted(NETWORKS)), default="paper",
+              show_default=True, help="Network size preset (compact: the shipped models; small: trains on a CPU).")
+@click.option("--input-size", type=int, default=None, help="Override the preset's input size.")
+@click.option("--width", type=int, default=None, help="Override the preset's first width.")
+@click.option("--levels", type=int, default=None, help="Override the preset's levels.")
+@click.option("--learning-rate", default=0.002, show_default=True)
+@click.option("--lr-gamma", default=1e-4, show_default=True,
+              help="Gamma of the inv policy: lr = learning_rate (1 + gamma step)^-1.")
+@click.option("--batch-size", default=16, show_default=True)
+@click.option("--labeled-epochs", default=10, show_default=True)
+@click.option("--self-augmented-epochs", default=10, show_default=True)
+@click.option("--unlabeled-per-labeled", default=1, show_default=True)
+@click.option("--unlabeled-limit", type=int, default=None)
+@click.option("--max-view-angle", default=0.0, show_default=True)
+@click.option("--seed", default=0, show_default=True)
+@click.option("--checkpoint-every", default=500, show_default=True)
+@click.option("--log-every", default=50, show_default=True)
+@click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
+def main(network_name, input_size, width, levels, learning_rate, lr_gamma, **options):
+    """Train SVBRDF-net, with self-augmentation when unlabeled photos are given."""
+    main_process = os.environ.get("RANK", "0") == "0"  # under torchrun, only rank 0 logs
+    logging.basicConfig(level=logging.INFO if main_process else logging.WARNING,
+                        format="%(asctime)s %(levelname)s %(message)s")
+    overrides = {"input_size": input_size, "width": width, "levels": levels}
+    try:
+        network = dataclasses.replace(NETWORKS[network_name],
+                                      **{k: v for k, v in overrides.items() if v is not None})
+        cfg = TrainConfig(network=network, optimizer=OptimizerConfig(learning_rate=learning_rate,
+                                                                    lr_gamma=lr_gamma),
+                          **options)
+        if main_process:
+            click.echo(json.dumps(dataclasses.asdict(cfg), indent=2))
+        history = run(cfg)
+    except (InputError, ValueError) as error:
+        raise click.ClickException(str(error)) from None
+    if history["test"]:
+        click.echo(json.dumps({"final_test": history["test"][-1]}))
+
+
+if __name__ == "__main__":
+    main()
