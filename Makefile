@@ -31,8 +31,13 @@ demo: setup
 		--self-augmented-epochs 3 --log-every 10
 	@echo "Loss curves, test examples with ground truth: $(DEMO_OUT)/train/{loss_curves,examples}.png"
 	$(BIN)/sa-estimate scenes/photos/brick-reference-01.jpg --model $(DEMO_OUT)/train \
+		--out $(DEMO_OUT)/estimate-demo-run --probe probes/env-studio.exr
+	$(BIN)/sa-estimate scenes/photos/brick-reference-01.jpg --class general \
 		--out $(DEMO_OUT)/estimate --probe probes/env-studio.exr
-	@echo "Estimate: $(DEMO_OUT)/estimate/report.html"
+	@echo "Estimate with the shipped general network: $(DEMO_OUT)/estimate/report.html"
+	$(BIN)/sa-evaluate --class general --materials scenes/materials --probes probes \
+		--samples 4 --relights 2 --out $(DEMO_OUT)/evaluate
+	@echo "Estimates against the truth and the naive baseline: $(DEMO_OUT)/evaluate/figure.png"
 	$(BIN)/check-renderer --probes probes --svbrdfs scenes/materials --size 64 \
 		--out $(DEMO_OUT)/check-renderer
 	@echo "Mitsuba | torch | 10x difference: $(DEMO_OUT)/check-renderer/*.png"

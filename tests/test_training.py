@@ -182,7 +182,8 @@ def test_self_augmented_minibatch_is_a_valid_labeled_pair():
 
 def test_training_and_estimation_do_not_import_mitsuba():
     """Training runs on GPU machines without libLLVM: train/ imports Mitsuba nowhere."""
-    code = ("import sys, train.cli.sa_estimate, train.cli.sa_train, train.cli.sa_validate; "
+    code = ("import sys, train.cli.sa_estimate, train.cli.sa_evaluate, train.cli.sa_train, "
+            "train.cli.sa_validate; "
             "assert 'mitsuba' not in sys.modules and 'drjit' not in sys.modules")
     result = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
                             text=True)
@@ -244,3 +245,28 @@ def test_self_augmentation_renders_under_the_training_probes_only(dataset, tmp_p
     assert test_probes and not test_probes & train_probes
     assert {run.probe_names[i] for i in run.augmentation_probes} == train_probes
     assert len(run.probe_names) == len(train_probes) + len(test_probes)  # relit evaluation: all
+
+
+def test_training_on_labeled_maps_rendered_on_the_fly_and_fine_tuning(tmp_path):
+    def train_on_maps(out, *options):
+        return CliRunner().invoke(sa_train, [
+            "--labeled-maps", str(BUNDLED_MATERIALS), "--probes", str(BUNDLED_PROBES), "--out",
+            str(out), *TINY_NETWORK, "--batch-size", "8", "--epoch-samples", "16",
+            "--render-size", "48", "--labeled-epochs", "1", "--self-augmented-epochs", "0",
+            *options])
+
+    result = train_on_maps(tmp_path / "maps")
+    assert result.exit_code == 0, result.output
+    history = json.loads((tmp_path / "maps" / "history.json").read_text())
+    assert history["train"][-1]["step"] == 2 and history["test"] == []  # no dataset to test on
+    first = load_checkpoint(checkpoint_files(tmp_path / "maps" / "checkpoints")[-1])
+
+    run = Run(TrainConfig(out=str(tmp_path / "tuned"), probes=str(BUNDLED_PROBES),
+                          labeled_maps=str(BUNDLED_MATERIALS), init_from=str(tmp_path / "maps"),
+                          network=NetworkConfig(input_size=32, width=8, max_width=64, levels=3,
+                                                hidden=256), render_size=48))
+    for name, value in run.net.state_dict().items():
+        assert torch.equal(value, first["model"][name]), name
+    other = train_on_maps(tmp_path / "other", "--init-from", str(tmp_path / "maps"), "--width",
+                          "4")
+    assert other.exit_code != 0 and "differs from this run's" in other.output

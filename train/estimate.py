@@ -91,7 +91,7 @@ def run(cfg):
                                              svbrdf.specular, svbrdf.roughness),
                        {"photo": str(Path(path).resolve()), "model": str(Path(cfg.model))})
         _write_pictures(folder, photo, svbrdf, bank, preview_probe)
-        reports.append({"photo": str(path), "out": str(folder),
+        reports.append({"photo": str(path), "out": str(folder), "model": str(cfg.model),
                         "network_ms": round(milliseconds, 1),
                         "specular_albedo": svbrdf.specular.tolist(),
                         "roughness": svbrdf.roughness})

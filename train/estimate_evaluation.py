@@ -40,6 +40,7 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 from PIL import Image  # noqa: E402
 from torch.nn import functional
+from tqdm import tqdm
 
 from render.common.atomic_files import atomic_path
 from render.common.color import linear_to_srgb
@@ -208,7 +209,8 @@ def run(cfg, net):
     records, figure_rows = [], []
     shown = set(np.linspace(0, len(samples) - 1, min(FIGURE_ROWS, len(samples))).astype(int))
     with tempfile.TemporaryDirectory() as photos:
-        for i, (image, truth, own_probe, name) in enumerate(samples):
+        for i, (image, truth, own_probe, name) in enumerate(tqdm(samples, desc="sa-evaluate",
+                                                                 unit="sample")):
             photo = read_photo(as_photo_file(image, photos, f"{i:05d}"), size)
             truth = at_size({name: value.to(cfg.device) for name, value in truth.items()}, size)
             probe_index, rotation = novel_lightings(np.random.default_rng([cfg.seed, 2, i]),

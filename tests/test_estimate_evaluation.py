@@ -1,0 +1,191 @@
+"""sa-evaluate's metrics against hand-computed cases, labeled maps rendered on the fly, and
+model files that never execute code; sa-estimate with the shipped models."""
+
+import json
+import math
+import pickle
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from click.testing import CliRunner
+from safetensors.torch import save_file
+
+from render.common.errors import InputError
+from render.common.probes import find_probes, load_probe
+from render.torch_renderer.renderer import ProbeBank
+from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO
+from train.checkpoints import FORMAT as CHECKPOINT_FORMAT
+from train.cli.sa_estimate import main as sa_estimate
+from train.cli.sa_evaluate import main as sa_evaluate
+from train.estimate_evaluation import (NAIVE_ROUGHNESS, NAIVE_SPECULAR, naive_estimate,
+                                       sample_errors, summary)
+from train.map_samples import MapSampler
+from train.model_files import SHIPPED, load_network, save_model, shipped_model_path
+from train.networks import NetworkConfig, SVBRDFNet
+
+TINY = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32)
+
+
+def parameters(albedo=0.5, normal=(0.0, 0.0, 1.0), specular=0.08, roughness=0.25, size=8):
+    normal = torch.nn.functional.normalize(torch.tensor(normal, dtype=torch.float32), dim=0)
+    return {"albedo": torch.full((1, 3, size, size), float(albedo)),
+            "normal": normal[None, :, None, None].expand(1, 3, size, size).clone(),
+            "log_specular": torch.full((1, 3), math.log(specular)),
+            "log_roughness": torch.tensor([[math.log(roughness)]])}
+
+
+def test_a_perfect_estimate_scores_zero():
+    truth = parameters(albedo=0.7, normal=(0.2, -0.1, 1.0), specular=0.3, roughness=0.1)
+    relit = torch.rand(3, 3, 8, 8)
+    errors = sample_errors(truth, truth, relit, relit)
+    assert errors == pytest.approx({name: 0.0 for name in errors}, abs=1e-3)
+
+
+def test_errors_match_hand_computed_values():
+    truth = parameters(albedo=0.5, normal=(0.0, 0.0, 1.0), specular=0.08, roughness=0.25)
+    tilt = math.radians(30.0)
+    guess = parameters(albedo=0.8, normal=(math.sin(tilt), 0.0, math.cos(tilt)), specular=0.16,
+                       roughness=0.05)
+    relit_truth = torch.zeros(2, 3, 8, 8)
+    errors = sample_errors(guess, truth, relit_truth + 0.1, relit_truth)
+    assert errors["albedo_rmse"] == pytest.approx(0.3, abs=1e-6)
+    assert errors["normal_angle_deg"] == pytest.approx(30.0, abs=0.05)
+    assert errors["log_specular_error"] == pytest.approx(math.log(2.0), abs=1e-6)
+    assert errors["log_roughness_error"] == pytest.approx(math.log(5.0), abs=1e-6)
+    assert errors["relit_rmse"] == pytest.approx(0.1, abs=1e-6)
+
+
+def test_the_naive_baseline_is_the_scaled_photo_flat_and_fixed_specular():
+    photo = np.random.default_rng(0).uniform(0.05, 0.6, size=(3, 16, 16)).astype(np.float32)
+    naive = naive_estimate(photo)
+    assert float(naive["albedo"].mean()) == pytest.approx(0.5, abs=1e-5)
+    assert torch.allclose(naive["albedo"][0], torch.as_tensor(photo) * (0.5 / photo.mean()),
+                          atol=1e-5)
+    assert torch.equal(naive["normal"][0, 2], torch.ones(16, 16))
+    assert torch.allclose(naive["log_specular"], torch.full((1, 3), math.log(NAIVE_SPECULAR)))
+    assert float(naive["log_roughness"]) == pytest.approx(math.log(NAIVE_ROUGHNESS))
+    # scored against itself as the truth, the baseline's errors vanish; the ratio divides means
+    records = [{"model": sample_errors(naive, naive, torch.zeros(1), torch.zeros(1)),
+                "naive": {"albedo_rmse": 0.2, "normal_angle_deg": 4.0,
+                          "log_specular_error": 1.0, "log_roughness_error": 0.5,
+                          "relit_rmse": 0.05}}]
+    mean = summary(records)
+    assert mean["ratio"]["relit_rmse"] == pytest.approx(0.0, abs=1e-6)
+    assert mean["naive"]["normal_angle_deg"] == 4.0
+
+
+@pytest.fixture(scope="module")
+def bank():
+    return ProbeBank([load_probe(path).radiance for path in find_probes(BUNDLED_PROBES)])
+
+
+def test_labeled_maps_give_valid_reproducible_samples_and_shards(bank):
+    sampler = MapSampler(BUNDLED_MATERIALS, bank, [0, 1], size=16, render_size=32)
+    batch = sampler.batch(np.random.default_rng(3), 4)
+    assert batch["image"].shape == batch["albedo"].shape == (4, 3, 16, 16)
+    assert 0 <= float(batch["image"].min()) and float(batch["image"].max()) <= 1
+    assert batch["albedo"].mean((1, 2, 3)) == pytest.approx(torch.full((4,), 0.5), abs=1e-4)
+    assert torch.allclose(batch["normal"].norm(dim=1), torch.ones(4, 16, 16), atol=1e-4)
+    assert {p["probe_index"] for p in batch["provenance"]} <= {0, 1}
+    again = sampler.batch(np.random.default_rng(3), 4)
+    assert torch.equal(batch["image"], again["image"])
+    second_half = sampler.batch(np.random.default_rng(3), 4, lambda items: items[2:])
+    assert torch.allclose(second_half["image"], batch["image"][2:], atol=1e-6)
+
+
+def test_sa_evaluate_reports_model_naive_and_ratio(tmp_path):
+    torch.manual_seed(0)
+    model = tmp_path / "tiny.safetensors"
+    save_model(SVBRDFNet(TINY), model, {"class": "test"})
+    result = CliRunner().invoke(sa_evaluate, [
+        "--model", str(model), "--materials", str(BUNDLED_MATERIALS), "--probes",
+        str(BUNDLED_PROBES), "--out", str(tmp_path / "eval"), "--samples", "2",
+        "--sample-size", "32", "--relights", "2"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    assert report["samples"] == 2 and "per_sample" not in report
+    for kind in ("model", "naive", "ratio"):
+        assert all(np.isfinite(v) for v in report["mean"][kind].values()), kind
+    full = json.loads((tmp_path / "eval" / "results.json").read_text())
+    assert len(full["per_sample"]) == 2
+    assert all(len(r["relight_probes"]) == 2 and r["photo_probe"] not in r["relight_probes"]
+               for r in full["per_sample"])
+    assert (tmp_path / "eval" / "figure.png").stat().st_size > 0
+
+
+class Payload:
+    """Unpickling this runs ``Path.touch`` on the marker: the code a crafted file carries."""
+
+    def __init__(self, marker):
+        self.marker = marker
+
+    def __reduce__(self):
+        return Path.touch, (self.marker,)
+
+
+def test_a_checkpoint_carrying_code_is_refused_without_running_it(tmp_path):
+    marker = tmp_path / "code-ran"
+    crafted = tmp_path / "crafted.pt"
+    torch.save({"format": CHECKPOINT_FORMAT, "model": Payload(marker)}, crafted)
+    with pytest.raises(InputError, match="crafted.pt: cannot read checkpoint safely"):
+        load_network(crafted)
+    assert not marker.exists()
+    pickle.loads(pickle.dumps(Payload(marker)))  # the payload is live: plain pickle runs it
+    assert marker.exists()
+
+
+def write_foreign(path):
+    save_file({"w": torch.zeros(2)}, str(path))
+
+
+def write_corrupt(path):
+    path.write_bytes(b"\x10\x00\x00\x00\x00\x00\x00\x00{not json")
+
+
+@pytest.mark.parametrize("write, message", [(write_foreign, "not an sa-svbrdf model"),
+                                            (write_corrupt, "cannot read safetensors")])
+def test_foreign_and_corrupt_model_files_get_one_line_errors(tmp_path, write, message):
+    path = tmp_path / "model.safetensors"
+    write(path)
+    with pytest.raises(InputError, match=f"model.safetensors: {message}"):
+        load_network(path)
+
+
+def test_an_unknown_class_is_refused():
+    with pytest.raises(ValueError, match="unknown model class 'stone'"):
+        shipped_model_path("stone")
+
+
+def test_a_model_file_round_trips_in_float16(tmp_path):
+    torch.manual_seed(1)
+    net = SVBRDFNet(TINY).eval()
+    save_model(net, tmp_path / "m.safetensors", {"class": "wood"})
+    loaded = load_network(tmp_path / "m.safetensors")
+    image = torch.rand(2, 3, 32, 32)
+    with torch.no_grad():
+        before, after = net(image), loaded(image)
+    for name in before:
+        assert torch.allclose(before[name], after[name], atol=2e-2, rtol=1e-2), name
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_models_load_and_fit_the_size_limit(name):
+    path = shipped_model_path(name)
+    assert path.stat().st_size <= 15 * 10 ** 6
+    net = load_network(path)
+    assert net.config.input_size == 256
+
+
+def test_sa_estimate_without_a_model_uses_the_shipped_general_network(tmp_path):
+    photo = REPO / "scenes" / "photos" / "brick-reference-01.jpg"
+    result = CliRunner().invoke(sa_estimate, [str(photo), "--out", str(tmp_path / "est")])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output.strip().splitlines()[-1])
+    assert report["model"].endswith("svbrdf-general.safetensors")
+    material = json.loads((tmp_path / "est" / photo.stem / "material.json").read_text())
+    assert 0.02 <= material["ward_roughness"] <= 1.0
+    result = CliRunner().invoke(sa_estimate, [str(photo), "--class", "wood", "--out",
+                                              str(tmp_path / "wood")])
+    assert result.exit_code == 0, result.output
