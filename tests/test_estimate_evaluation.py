@@ -104,7 +104,7 @@ def test_sa_evaluate_reports_model_naive_and_ratio(tmp_path):
         str(BUNDLED_PROBES), "--out", str(tmp_path / "eval"), "--samples", "2",
         "--sample-size", "32", "--relights", "2"])
     assert result.exit_code == 0, result.output
-    report = json.loads(result.output)
+    report = json.loads(result.stdout)
     assert report["samples"] == 2 and "per_sample" not in report
     for kind in ("model", "naive", "ratio"):
         assert all(np.isfinite(v) for v in report["mean"][kind].values()), kind

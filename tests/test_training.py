@@ -17,7 +17,9 @@ from render.torch_renderer.renderer import ProbeBank
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO, write_png
 from train.checkpoints import checkpoint_files, load_checkpoint
 from train.cli.sa_estimate import main as sa_estimate
+from train.cli.sa_evaluate import main as sa_evaluate
 from train.cli.sa_train import main as sa_train
+from train.model_files import save_model
 from train.networks import NetworkConfig, SVBRDFNet
 from train.schedule import LABELED, SELF_AUGMENTED, Schedule
 from train.self_augmentation import random_lightings, self_augmented_batch
@@ -270,3 +272,21 @@ def test_training_on_labeled_maps_rendered_on_the_fly_and_fine_tuning(tmp_path):
     other = train_on_maps(tmp_path / "other", "--init-from", str(tmp_path / "maps"), "--width",
                           "4")
     assert other.exit_code != 0 and "differs from this run's" in other.output
+
+
+def test_sa_evaluate_takes_the_test_split_of_datasets_in_order(dataset, tmp_path):
+    model = tmp_path / "tiny.safetensors"
+    save_model(SVBRDFNet(NetworkConfig(input_size=32, width=4, max_width=16, levels=3,
+                                       hidden=32)), model, {"class": "test"})
+    result = CliRunner().invoke(sa_evaluate, [
+        "--model", str(model), "--dataset", str(dataset), "--dataset", str(dataset),
+        "--probes", str(BUNDLED_PROBES), "--out", str(tmp_path / "eval"), "--samples", "3",
+        "--relights", "1", "--per-sample"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    test_ids = sorted(r["id"] for r in json.loads((dataset / "index.json").read_text())["samples"]
+                      if r["split"] == "test")
+    assert [r["sample"] for r in report["per_sample"]] == [test_ids[0], test_ids[-1],
+                                                           test_ids[-1]]
+    for record in report["per_sample"]:  # relit under probes the photo was not taken under
+        assert record["photo_probe"] not in record["relight_probes"]

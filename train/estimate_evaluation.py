@@ -1,8 +1,8 @@
 """``sa-evaluate``: the quality of a model's estimates on labeled test data, against the naive
 baseline. This is the number the project is judged by.
 
-Test data is either a ``render-dataset`` folder (up to ``--samples`` of its ``--split``, by
-default the held-out "test" split) or a folder of material folders, rendered here by the torch renderer under the
+Test data is either ``render-dataset`` folders (up to ``--samples`` of their ``--split``, by
+default the held-out "test" split, evenly spaced over the folders in order) or a folder of material folders, rendered here by the torch renderer under the
 probes of ``--probes`` (train.map_samples; ``--samples`` of them, drawn from ``--seed``).
 
 Each test image goes the way a user's photo goes: it is saved as an 8-bit PNG, gamma 1/2.2
@@ -68,8 +68,8 @@ class EvaluationConfig:
     """Folder for results.json and figure.png."""
     probes: str
     """Folder of HDR probes: the relighting probes, and the lighting of ``materials``."""
-    dataset: str | None = None
-    """A render-dataset folder; its ``split`` is evaluated."""
+    datasets: tuple = ()
+    """render-dataset folders; their ``split``, concatenated in this order, is evaluated."""
     materials: str | None = None
     """Or a folder of material folders, rendered here under ``probes``."""
     split: str = "test"
@@ -87,15 +87,21 @@ class EvaluationConfig:
 def test_samples(cfg, bank, probe_names):
     """The test samples: (image (3, H, W) float32, truth dict of (1, ...) tensors, own probe
     name or None, sample name), as a list."""
-    if (cfg.dataset is None) == (cfg.materials is None):
-        raise InputError(cfg.out, "give either a dataset folder or a materials folder")
-    if cfg.dataset is not None:
-        data = LabeledDataset(cfg.dataset, None if cfg.split == "all" else cfg.split)
-        if len(data) == 0:
-            raise InputError(cfg.dataset, f"no samples in the '{cfg.split}' split")
+    if bool(cfg.datasets) == (cfg.materials is not None):
+        raise InputError(cfg.out, "give either dataset folders or a materials folder")
+    if cfg.datasets:
+        split = None if cfg.split == "all" else cfg.split
+        items = []  # (dataset, index) over the datasets, in order
+        for folder in cfg.datasets:
+            data = LabeledDataset(folder, split)
+            if len(data) == 0:
+                raise InputError(folder, f"no samples in the '{cfg.split}' split")
+            items += [(data, i) for i in range(len(data))]
+        chosen = np.linspace(0, len(items) - 1, min(cfg.samples, len(items))).astype(int)
         samples = []
-        for i in np.unique(np.linspace(0, len(data) - 1, min(cfg.samples, len(data))).astype(int)):
-            item = data[int(i)]
+        for k in np.unique(chosen):
+            data, i = items[int(k)]
+            item = data[i]
             truth = {name: torch.as_tensor(item[name])[None] for name in
                      ("albedo", "normal", "log_specular", "log_roughness")}
             samples.append((item["image"], truth, item["provenance"]["probe"],
@@ -191,10 +197,9 @@ def novel_lightings(rng, own_probe, probe_names, held_out, count):
 
 
 def held_out_probes(cfg):
-    """Names of the dataset's test-split probes (empty for a materials folder)."""
-    if cfg.dataset is None:
-        return set()
-    return {record["probe"] for record in LabeledDataset(cfg.dataset, "test").samples}
+    """Names of the datasets' test-split probes (none for a materials folder)."""
+    return {record["probe"] for folder in cfg.datasets
+            for record in LabeledDataset(folder, "test").samples}
 
 
 def run(cfg, net):
@@ -231,7 +236,8 @@ def run(cfg, net):
                                                   relit_truth[0]))
             records.append(record)
     report = {"model": str(getattr(net, "source", "")),
-              "data": cfg.dataset or cfg.materials, "split": cfg.split if cfg.dataset else None,
+              "data": list(cfg.datasets) or cfg.materials,
+              "split": cfg.split if cfg.datasets else None,
               "samples": len(records), "mean": summary(records), "per_sample": records}
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)

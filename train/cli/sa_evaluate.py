@@ -15,8 +15,8 @@ from train.estimate_evaluation import EvaluationConfig, run
               help="Model file (.safetensors), sa-train checkpoint (.pt) or run folder.")
 @click.option("--class", "material_class", type=click.Choice(SHIPPED), default="general",
               show_default=True, help="Shipped network to evaluate when no --model is given.")
-@click.option("--dataset", type=click.Path(), default=None,
-              help="render-dataset folder whose --split is evaluated.")
+@click.option("--dataset", "datasets", type=click.Path(), multiple=True,
+              help="render-dataset folder whose --split is evaluated (repeatable).")
 @click.option("--materials", type=click.Path(), default=None,
               help="Or material folders, rendered here under --probes (torch renderer).")
 @click.option("--probes", required=True, type=click.Path(),
