@@ -1,5 +1,6 @@
 """Benchmark of SVBRDF-net inference: milliseconds per photo (network forward pass only, batch
-of one, after warm-up) for the paper's and the small configuration. Prints JSON.
+of one, after warm-up) for the paper's, the compact (shipped models) and the small
+configuration. Prints JSON.
 
     python benchmarks/estimate_speed.py [--device cpu|cuda] [--repeats 10]
 """
@@ -12,7 +13,7 @@ import time
 import click
 import torch
 
-from train.networks import SMALL_CPU_CONFIG, NetworkConfig, SVBRDFNet
+from train.networks import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig, SVBRDFNet
 
 
 @click.command()
@@ -20,7 +21,8 @@ from train.networks import SMALL_CPU_CONFIG, NetworkConfig, SVBRDFNet
 @click.option("--repeats", default=10, show_default=True)
 def main(device, repeats):
     results = {}
-    for name, config in (("paper", NetworkConfig()), ("small", SMALL_CPU_CONFIG)):
+    for name, config in (("paper", NetworkConfig()), ("compact", COMPACT_CONFIG),
+                         ("small", SMALL_CPU_CONFIG)):
         net = SVBRDFNet(config).to(device).eval()
         photo = torch.rand(1, 3, config.input_size, config.input_size, device=device)
         with torch.no_grad():
