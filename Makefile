@@ -37,7 +37,7 @@ demo: setup
 	@echo "Estimate with the shipped general network: $(DEMO_OUT)/estimate/report.html"
 	$(BIN)/sa-evaluate --class general --materials scenes/materials --probes probes \
 		--samples 4 --relights 2 --out $(DEMO_OUT)/evaluate
-	@echo "Estimates against the truth and the naive baseline: $(DEMO_OUT)/evaluate/figure.png"
+	@echo "Estimates against the truth and the naive baseline (the bundled sets are training data of the general network, not a held-out test; held-out figures: models/README.md): $(DEMO_OUT)/evaluate/figure.png"
 	$(BIN)/check-renderer --probes probes --svbrdfs scenes/materials --size 64 \
 		--out $(DEMO_OUT)/check-renderer
 	@echo "Mitsuba | torch | 10x difference: $(DEMO_OUT)/check-renderer/*.png"
