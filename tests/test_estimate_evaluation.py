@@ -189,3 +189,13 @@ def test_sa_estimate_without_a_model_uses_the_shipped_general_network(tmp_path):
     result = CliRunner().invoke(sa_estimate, [str(photo), "--class", "wood", "--out",
                                               str(tmp_path / "wood")])
     assert result.exit_code == 0, result.output
+
+
+def test_a_folder_that_is_not_a_dataset_gets_a_one_line_error(tmp_path):
+    (tmp_path / "photos").mkdir()
+    result = CliRunner().invoke(sa_evaluate, [
+        "--class", "wood", "--dataset", str(tmp_path / "photos"), "--probes",
+        str(BUNDLED_PROBES), "--out", str(tmp_path / "eval")])
+    assert result.exit_code == 1  # a ClickException, not an uncaught error
+    assert f"{tmp_path / 'photos'}: no index.json" in result.output
+    assert "Traceback" not in result.output and not (tmp_path / "eval").exists()

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from render.common.errors import InputError
+
 ARRAYS = ("image", "albedo", "normal", "log_specular", "log_roughness")
 
 
@@ -20,8 +22,8 @@ class LabeledDataset:
         self.folder = Path(folder)
         index_path = self.folder / "index.json"
         if not index_path.is_file():
-            raise FileNotFoundError(f"{index_path}: no index.json (not a finished render-dataset "
-                                    "output folder)")
+            raise InputError(self.folder, "no index.json (not a finished render-dataset output "
+                                          "folder)")
         samples = json.loads(index_path.read_text())["samples"]
         self.samples = [s for s in samples if split is None or s["split"] == split]
 
