@@ -47,7 +47,7 @@ from render.common.color import linear_to_srgb
 from render.common.errors import InputError
 from render.common.exposure import expose
 from render.common.probes import find_probes, load_probe
-from render.torch_renderer.renderer import ProbeBank, render
+from render.torch_renderer.renderer import ProbeBank, render, sphere_normals, ward_kernel
 from train.estimate import estimate
 from train.labeled_dataset import LabeledDataset
 from train.map_samples import MapSampler
@@ -259,23 +259,17 @@ def summary(records):
 def specular_swatch(log_specular, log_roughness, size):
     """A sphere (size, size, 3) of relative diffuse albedo 0.5 and the given homogeneous Ward
     specular, lit by one directional light (SWATCH_LIGHT) and seen from +z, linear RGB."""
-    coords = (np.arange(size) + 0.5) / size * 2 - 1
-    y, x = np.meshgrid(-coords, coords, indexing="ij")
-    inside = x * x + y * y < 1
-    normal = np.stack([x, y, np.sqrt(np.clip(1 - x * x - y * y, 0, 1))], -1)
-    cos_i = np.clip(normal @ SWATCH_LIGHT, 0, None)
-    cos_o = np.clip(normal[..., 2], 1e-4, None)
-    half = SWATCH_LIGHT + np.array([0.0, 0.0, 1.0])
-    half /= np.linalg.norm(half)
-    cos_h = np.clip(normal @ half, 1e-4, 1)
-    alpha = math.exp(float(log_roughness))
-    tan2 = (1 - cos_h ** 2) / cos_h ** 2
-    ward = np.exp(-tan2 / alpha ** 2) / (4 * math.pi * alpha ** 2
-                                         * np.sqrt(np.clip(cos_i, 1e-4, None) * cos_o))
-    specular = np.exp(np.asarray(log_specular, np.float64))
-    brdf = 0.5 / math.pi + specular * ward[..., None]
-    radiance = brdf * (cos_i * math.pi * 1.2)[..., None]
-    return np.where(inside[..., None], radiance, 0.15).astype(np.float32)
+    normal, mask = sphere_normals(size, dtype=torch.float64)  # (3, S, S), (1, S, S)
+    light = torch.as_tensor(SWATCH_LIGHT)
+    half = functional.normalize(light + torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64), dim=0)
+    cos_i = torch.einsum("chw,c->hw", normal, light)
+    lobe = ward_kernel(torch.einsum("chw,c->hw", normal, half), cos_i, normal[2],
+                       math.exp(float(log_roughness)))  # f_s cos_i / rho_s
+    specular = torch.exp(torch.as_tensor(np.asarray(log_specular, np.float64)))
+    radiance = (0.5 / math.pi * cos_i.clamp(min=0) + specular[:, None, None] * lobe) \
+        * (math.pi * 1.2)
+    swatch = torch.where(mask > 0, radiance, torch.full_like(radiance, 0.15))
+    return swatch.permute(1, 2, 0).numpy().astype(np.float32)
 
 
 def figure_row(photo, estimate_, truth, relit_estimate, relit_truth):

@@ -38,9 +38,6 @@ class MapSampler:
         self.materials = [resample(load_material(path), render_size)
                           for path in find_materials(folder)]
 
-    def __len__(self):
-        return len(self.materials)
-
     def log_specular_range(self):
         """(lowest, highest) log relative specular albedo over the materials, each taken
         relative to its whole map (a crop's scale differs a little)."""

@@ -15,9 +15,8 @@ import json
 from pathlib import Path
 
 import torch
-from safetensors import SafetensorError
+from safetensors import SafetensorError, safe_open
 from safetensors.torch import load_file, save_file
-from safetensors import safe_open
 
 from render.common.atomic_files import atomic_path
 from render.common.errors import InputError

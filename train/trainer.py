@@ -114,9 +114,8 @@ class Run:
                              f"{place.world_size} processes")
         if cfg.dataset is None and cfg.labeled_maps is None:
             raise InputError(cfg.out, "give a dataset, labeled maps, or both")
-        empty = []
-        self.train_set = LabeledDataset(cfg.dataset, "train") if cfg.dataset else empty
-        self.test_set = LabeledDataset(cfg.dataset, "test") if cfg.dataset else empty
+        self.train_set = LabeledDataset(cfg.dataset, "train") if cfg.dataset else []
+        self.test_set = LabeledDataset(cfg.dataset, "test") if cfg.dataset else []
         probe_files = find_probes(cfg.probes)
         self.probe_names = [path.stem for path in probe_files]
         self.probes = ProbeBank([load_probe(path).radiance for path in probe_files],
