@@ -1,29 +1,37 @@
-"""Test error with and without self-augmentation: same data, schedule and seed (docs/training.md).
+"""Self-augmentation against the baseline, measured with ``sa-evaluate`` (docs/training.md).
 
-    .venv/bin/python scripts/self_augmentation_experiment.py --shared ../shared/data --out EXP \
-        [--seeds 0,1,2] [--epochs 10] [--crops 2] [--train-on K --subsets N]
+    .venv/bin/python scripts/self_augmentation_experiment.py --sets WOOD_SETS/ \
+        --probes TRAIN_PROBES/ --heldout HELDOUT_DATASET/ --heldout-probes TEST_PROBES/ \
+        --out EXP [--labeled 4] [--pool 20] [--seeds 0,1,2]
 
-Protocol per seed (one material class, wood, as the paper trains one network per class):
-1. ``make-materials --class wood`` makes LABELED + TEST + UNLABELED sets.
-2. ``render-dataset`` renders the first LABELED + TEST sets under the shared probes, holding
-   out TEST sets and a fifth of the probes for testing: the labeled dataset.
-3. ``render-dataset`` renders the other UNLABELED sets: their images are the unlabeled
-   photos (the labels are never read).
-4. ``sa-train`` twice from the same seed with the same schedule: without unlabeled data (the
-   baseline) and with it (self-augmentation).
-The seed draws the wood sets, the splits, the initialization and the minibatches. With
-``--train-on K`` each data seed gives ``--subsets`` replicates, each training on a random K of
-the labeled sets (the same test sets and unlabeled photos) from its own training seed: the
-paper's claim is that self-augmentation helps most when labeled data is scarce. Writes to
-EXP: results.json (every run's test history; per replicate and error, the final error and its
-mean over the last five epochs), summary.md (the relative changes and their mean over the
-replicates) and curves.png (test errors over the epochs, baseline against self-augmented, per
-replicate), all three rewritten after every replicate. Re-running the command reuses what is
-finished (every command it runs resumes).
+One class, wood, as the paper compares. The material sets in ``--sets`` (sorted by name) are
+split once: the first ``--pool`` may be labeled, the others are never labeled and give the
+unlabeled photos. The held-out dataset (sets and probes never used here) is what every
+network is judged on, against the naive baseline.
+
+1. Unlabeled photos: ``render-dataset`` (Mitsuba) renders the never-labeled sets under
+   ``--unlabeled-probes`` of the training probes, 64 px samples of 128 px renders (the scale
+   of the labeled crops). Shared by all seeds.
+2. Per seed, ``--labeled`` sets drawn from the pool by the seed, and three ``sa-train`` runs of
+   the ``small`` network, the labeled minibatches rendered on the fly (``--labeled-maps``)
+   under the training probes:
+   - ``pretrained``: ``--pretrain-epochs`` labeled epochs (the paper starts self-augmentation
+     from a network trained on labeled data);
+   - ``baseline``: from ``pretrained``, ``--epochs`` more labeled epochs;
+   - ``self-augmented``: from ``pretrained``, the same labeled minibatches, each preceded by a
+     self-augmented one made from the unlabeled photos (rendered under the training probes).
+   Both arms start from the same weights with a fresh optimizer, see the same labeled
+   minibatches (drawn from the seed and step) and differ only in the self-augmented ones.
+3. ``sa-evaluate`` of each run on ``--samples`` of the held-out dataset, relit under the
+   held-out probes.
+
+Writes to EXP: results.json (every run's mean errors, the naive baseline's, and the ratios),
+summary.md (per error: mean and spread over seeds of each run's ratio to naive, and the change
+with self-augmentation per seed) and ratios.png, rewritten after every seed. Re-running the
+command reuses what is finished: every command it runs resumes or is skipped when done.
 """
 
 import json
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -36,143 +44,147 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 BIN = Path(sys.executable).parent
-ERRORS = ("albedo_mse", "normal_angle_deg", "log_specular_mse", "log_roughness_mse", "relit_mse")
-RUNS = ("baseline", "self-augmented")
-LAST_EPOCHS = 5
+ERRORS = ("relit_rmse", "albedo_rmse", "normal_angle_deg", "log_specular_error",
+          "log_roughness_error")
+RUNS = ("pretrained", "baseline", "self-augmented")
 
 
-def command(name, *arguments):
-    subprocess.run([str(BIN / name), *map(str, arguments)], check=True)
+def command(name, *arguments, stdout=None):
+    subprocess.run([str(BIN / name), *map(str, arguments)], check=True, stdout=stdout)
 
 
-def render_data(out, probes, labeled, test_sets, unlabeled, crops, seed):
-    """The labeled and unlabeled dataset folders of one data seed."""
-    maps = out / "maps"
-    command("make-materials", "--class", "wood", "--count", labeled + test_sets + unlabeled,
-            "--resolution", 256, "--seed", seed, "--out", maps)
-    folders = sorted(p for p in maps.iterdir() if p.is_dir())
-    for name, chosen in (("labeled-maps", folders[:labeled + test_sets]),
-                         ("unlabeled-maps", folders[labeled + test_sets:])):
-        (out / name).mkdir(exist_ok=True)
-        for folder in chosen:
-            if not (out / name / folder.name).exists():
-                shutil.copytree(folder, out / name / folder.name)
-    render = ["--resolution", 64, "--render-size", 128, "--rotations", 1, "--crops", crops,
-              "--spp", 64, "--workers", 2, "--seed", seed]
-    command("render-dataset", "--probes", probes, "--svbrdfs", out / "labeled-maps", "--out",
-            out / "labeled", "--test-materials", test_sets / (labeled + test_sets),
-            "--test-probes", 0.2, *render)
-    command("render-dataset", "--probes", probes, "--svbrdfs", out / "unlabeled-maps", "--out",
-            out / "unlabeled", "--test-materials", 0, "--test-probes", 0, *render)
-    return out / "labeled", out / "unlabeled"
-
-
-def subset_dataset(dataset, out, count, rng):
-    """A dataset folder at ``out`` with ``count`` of ``dataset``'s training materials (drawn
-    by ``rng``) and the first crop of each test render (a quarter of the test samples with
-    four crops: the evaluation after every epoch dominates the time of such short runs); it
-    lists the original sample files (linked)."""
-    index = json.loads((dataset / "index.json").read_text())
-    materials = sorted({s["material"] for s in index["samples"] if s["split"] == "train"})
-    kept = set(rng.choice(materials, count, replace=False).tolist())
-    samples = [s for s in index["samples"] if (s["split"] == "train" and s["material"] in kept)
-               or (s["split"] == "test" and s["id"].endswith("_c00"))]
+def link_folders(folders, out):
+    """A folder ``out`` of symbolic links to ``folders``."""
     out.mkdir(parents=True, exist_ok=True)
-    if not (out / "samples").exists():
-        (out / "samples").symlink_to((dataset / "samples").resolve())
-    subset = {**index, "count": len(samples), "samples": samples, "labeled_materials":
-              sorted(kept), "splits": {split: sum(s["split"] == split for s in samples)
-                                       for split in ("train", "test")}}
-    (out / "index.json").write_text(json.dumps(subset, indent=2) + "\n")
+    for folder in folders:
+        link = out / folder.name
+        if not link.exists():
+            link.symlink_to(folder.resolve())
     return out
 
 
-def train_pair(dataset, unlabeled, out, probes, epochs, seed):
-    """The baseline and the self-augmented run on ``dataset``; returns {run: test history}."""
-    histories = {}
-    for run, extra in zip(RUNS, ([], ["--unlabeled", unlabeled])):
-        command("sa-train", "--dataset", dataset, "--out", out / run, "--probes", probes,
-                "--network", "small", "--labeled-epochs", epochs, "--self-augmented-epochs",
-                epochs, "--seed", seed, "--log-every", 100, *extra)
-        histories[run] = json.loads((out / run / "history.json").read_text())["test"]
-    return histories
+def unlabeled_photos(sets, probes, count, out):
+    """render-dataset of ``sets`` under ``count`` evenly spaced ``probes``: the unlabeled
+    photos (their labels are never read)."""
+    files = sorted(p for p in probes.iterdir() if p.suffix.lower() in (".exr", ".hdr"))
+    chosen = [files[i] for i in np.linspace(0, len(files) - 1, count).round().astype(int)]
+    command("render-dataset", "--probes", link_folders(chosen, out / "unlabeled-probes"),
+            "--svbrdfs", link_folders(sets, out / "unlabeled-maps"), "--out", out / "unlabeled",
+            "--resolution", 64, "--render-size", 128, "--rotations", 1, "--crops", 2,
+            "--spp", 64, "--workers", 2, "--test-materials", 0, "--test-probes", 0)
+    return out / "unlabeled"
 
 
-def summarize(histories):
-    """Per error: final and last-five-epoch-mean errors of each run."""
-    return {run: {"final": {name: tests[-1][name] for name in ERRORS},
-                  f"mean_of_last_{LAST_EPOCHS}_epochs": {
-                      name: float(np.mean([r[name] for r in tests[-LAST_EPOCHS:]]))
-                      for name in ERRORS}}
-            for run, tests in histories.items()}
+def train_runs(labeled_maps, unlabeled, probes, out, seed, pretrain_epochs, epochs,
+               epoch_samples):
+    """The three runs of one seed (see the module docstring); returns {run: run folder}."""
+    common = ["--labeled-maps", labeled_maps, "--render-size", 128, "--epoch-samples",
+              epoch_samples, "--network", "small", "--probes", probes, "--seed", seed,
+              "--log-every", 100]
+    folders = {run: out / run for run in RUNS}
+    command("sa-train", *common, "--out", folders["pretrained"], "--labeled-epochs",
+            pretrain_epochs, "--self-augmented-epochs", 0)
+    for run, extra in (("baseline", []), ("self-augmented", ["--unlabeled", unlabeled])):
+        command("sa-train", *common, "--out", folders[run], "--init-from", folders["pretrained"],
+                "--labeled-epochs", 0, "--self-augmented-epochs", epochs, *extra)
+    return folders
+
+
+def evaluate(run, heldout, heldout_probes, samples, out):
+    """sa-evaluate's mean errors of ``run`` (skipped when already evaluated)."""
+    results = out / "results.json"
+    if not results.exists():
+        with open(out.with_suffix(".json"), "w") as stdout:
+            command("sa-evaluate", "--model", run, "--dataset", heldout, "--split", "all",
+                    "--probes", heldout_probes, "--samples", samples, "--out", out,
+                    stdout=stdout)
+    return json.loads(results.read_text())["mean"]
 
 
 def write_summary(path, results):
-    """Markdown: per error and measure, the change with self-augmentation per replicate, its
-    mean, and in how many replicates the error fell."""
-    lines = ["| error | measure | change per replicate | mean change | replicates lower |",
-             "| --- | --- | --- | --- | --- |"]
+    """Markdown: per error, each run's ratio to naive (mean and standard deviation over the
+    seeds), and the change of the error with self-augmentation per seed."""
+    seeds = sorted(results)
+    lines = ["| error | naive | " + " | ".join(f"{run} / naive" for run in RUNS)
+             + " | self-augmented vs baseline, per seed | seeds lower |",
+             "| --- | --- | " + " | ".join("---" for _ in RUNS) + " | --- | --- |"]
     for name in ERRORS:
-        for measure in ("final", f"mean_of_last_{LAST_EPOCHS}_epochs"):
-            changes = [100 * (r["summary"]["self-augmented"][measure][name]
-                              / r["summary"]["baseline"][measure][name] - 1)
-                       for r in results.values()]
-            lines.append(f"| {name} | {measure.replace('_', ' ')} | "
-                         + ", ".join(f"{c:+.1f}%" for c in changes)
-                         + f" | {np.mean(changes):+.1f}% | {sum(c < 0 for c in changes)} of "
-                           f"{len(changes)} |")
+        naive = np.mean([results[s]["baseline"]["naive"][name] for s in seeds])
+        cells = []
+        for run in RUNS:
+            ratios = [results[s][run]["ratio"][name] for s in seeds]
+            cells.append(f"{np.mean(ratios):.3f} ± {np.std(ratios):.3f}")
+        changes = [100 * (results[s]["self-augmented"]["model"][name]
+                          / results[s]["baseline"]["model"][name] - 1) for s in seeds]
+        lines.append(f"| {name} | {naive:.4g} | " + " | ".join(cells) + " | "
+                     + ", ".join(f"{c:+.1f}%" for c in changes)
+                     + f" | {sum(c < 0 for c in changes)} of {len(changes)} |")
     path.write_text("\n".join(lines) + "\n")
 
 
-def plot_curves(path, results):
-    figure, axes = plt.subplots(1, len(ERRORS), figsize=(4 * len(ERRORS), 3.6))
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for color, (name, result) in zip(colors, results.items()):
-        for run, style in zip(RUNS, ("--", "-")):
-            tests = result["histories"][run]
-            for axis, error in zip(axes, ERRORS):
-                axis.plot([r["epoch"] for r in tests], [r[error] for r in tests], style,
-                          color=color, label=f"{name} {run}")
-    for axis, name in zip(axes, ERRORS):
-        axis.set(title=name, xlabel="epoch", yscale="log")
-    axes[0].legend(fontsize=7)
-    figure.suptitle("Test errors: baseline (dashed) and self-augmented (solid), same replicate")
+def plot_ratios(path, results):
+    """Each run's error / naive per error, a dot per seed and a bar for the mean."""
+    seeds = sorted(results)
+    figure, axis = plt.subplots(figsize=(10, 4))
+    width = 0.8 / len(RUNS)
+    for offset, run in enumerate(RUNS):
+        x = np.arange(len(ERRORS)) + (offset - (len(RUNS) - 1) / 2) * width
+        ratios = np.array([[results[s][run]["ratio"][name] for name in ERRORS] for s in seeds])
+        axis.bar(x, ratios.mean(0), width, label=run, alpha=0.7)
+        for row in ratios:
+            axis.plot(x, row, "k.", markersize=4)
+    axis.axhline(1.0, color="k", linewidth=0.8, linestyle="--")
+    axis.set_xticks(np.arange(len(ERRORS)), ERRORS)
+    axis.set_ylabel("error / naive baseline's")
+    axis.set_title(f"Held-out wood, {len(seeds)} seeds (dots); below 1: better than naive")
+    axis.legend()
     figure.tight_layout()
-    figure.savefig(path, dpi=90)
+    figure.savefig(path, dpi=100)
     plt.close(figure)
 
 
 @click.command()
-@click.option("--shared", required=True, type=click.Path(exists=True), help="../shared/data")
+@click.option("--sets", required=True, type=click.Path(exists=True, file_okay=False),
+              help="Wood material folders (make-materials --class wood).")
+@click.option("--probes", required=True, type=click.Path(exists=True, file_okay=False),
+              help="Training probes.")
+@click.option("--heldout", required=True, type=click.Path(exists=True, file_okay=False),
+              help="render-dataset folder of held-out sets under held-out probes.")
+@click.option("--heldout-probes", required=True, type=click.Path(exists=True, file_okay=False),
+              help="Held-out probes, for relighting.")
 @click.option("--out", required=True, type=click.Path(), help="Experiment folder.")
-@click.option("--labeled", default=8, show_default=True, help="Labeled training sets.")
-@click.option("--test", "test_sets", default=8, show_default=True, help="Held-out test sets.")
-@click.option("--unlabeled", default=24, show_default=True, help="Sets rendered as unlabeled.")
-@click.option("--epochs", default=10, show_default=True, help="Epochs of each phase.")
-@click.option("--crops", default=2, show_default=True, help="64 px samples per 128 px render.")
-@click.option("--seeds", default="0,1,2", show_default=True,
-              help="Comma-separated data seeds (wood sets, splits, renders).")
-@click.option("--train-on", type=int, default=None,
-              help="Train on this many of the labeled sets only, a random subset per replicate.")
-@click.option("--subsets", default=1, show_default=True,
-              help="With --train-on: replicates per data seed (subset and training seed).")
-def main(shared, out, labeled, test_sets, unlabeled, epochs, crops, seeds, train_on, subsets):
-    out, probes = Path(out), Path(shared) / "probes"
+@click.option("--labeled", default=4, show_default=True, help="Labeled sets per seed.")
+@click.option("--pool", default=20, show_default=True,
+              help="The first POOL sets may be labeled; the others give unlabeled photos.")
+@click.option("--unlabeled-probes", default=10, show_default=True,
+              help="Training probes the unlabeled photos are rendered under.")
+@click.option("--pretrain-epochs", default=6, show_default=True)
+@click.option("--epochs", default=4, show_default=True, help="Epochs of both arms.")
+@click.option("--epoch-samples", default=1600, show_default=True)
+@click.option("--samples", default=48, show_default=True, help="Held-out samples evaluated.")
+@click.option("--seeds", default="0,1,2", show_default=True, help="Comma-separated seeds.")
+def main(sets, probes, heldout, heldout_probes, out, labeled, pool, unlabeled_probes,
+         pretrain_epochs, epochs, epoch_samples, samples, seeds):
+    out, probes = Path(out), Path(probes)
+    folders = sorted(p for p in Path(sets).iterdir() if p.is_dir())
+    if len(folders) <= pool or labeled > pool:
+        raise click.UsageError(f"{sets} holds {len(folders)} sets: need more than --pool "
+                               f"{pool} and --labeled {labeled} at most --pool")
+    unlabeled = unlabeled_photos(folders[pool:], probes, unlabeled_probes, out)
     results = {}
     for seed in (int(s) for s in seeds.split(",")):
-        dataset, unlabeled_dataset = render_data(out / f"seed-{seed}", probes, labeled,
-                                                 test_sets, unlabeled, crops, seed)
-        for subset in range(subsets if train_on else 1):
-            name = f"seed-{seed}" if train_on is None else f"seed-{seed}-subset-{subset}"
-            training_set = dataset if train_on is None else subset_dataset(
-                dataset, out / name / "labeled-subset", train_on,
-                np.random.default_rng([seed, subset]))
-            histories = train_pair(training_set, unlabeled_dataset, out / name, probes, epochs,
-                                   seed if train_on is None else subset)
-            results[name] = {"histories": histories, "summary": summarize(histories)}
-            (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
-            write_summary(out / "summary.md", results)  # after every replicate: usable if stopped
-            plot_curves(out / "curves.png", results)
+        chosen = np.random.default_rng(seed).choice(pool, labeled, replace=False)
+        seed_out = out / f"seed-{seed}"
+        labeled_maps = link_folders([folders[i] for i in sorted(chosen)],
+                                    seed_out / "labeled-maps")
+        runs = train_runs(labeled_maps, unlabeled, probes, seed_out, seed, pretrain_epochs,
+                          epochs, epoch_samples)
+        results[seed] = {run: evaluate(folder, heldout, heldout_probes, samples,
+                                       seed_out / f"eval-{run}")
+                         for run, folder in runs.items()}
+        (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
+        write_summary(out / "summary.md", results)
+        plot_ratios(out / "ratios.png", results)
     print((out / "summary.md").read_text())
 
 

@@ -10,7 +10,7 @@ from render.cli.render_dataset import main
 from render.common.errors import InputError
 from render.common.probes import load_probe
 from render.materials.reduced_svbrdf import load_material
-from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, make_material, make_probe, write_png
+from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, make_material, make_probe
 
 
 def sky(height=16):

@@ -1,6 +1,8 @@
 """sa-validate: the search space, the sphere tables against direct renders, and the pipeline
 end to end at toy size."""
 
+import json
+
 import numpy as np
 import pytest
 import torch
@@ -65,6 +67,26 @@ def test_pipeline_end_to_end_at_toy_size(tmp_path):
         assert (tmp_path / "val" / name).is_file(), name
     table = (tmp_path / "val" / "table.md").read_text()
     assert "| 2x2x2 | 8 |" in table and "| dense | 1500 |" in table
+
+    # Resume: a run lost (as if killed during it) is redone to the same result, the others are
+    # read back; the folder may move; another seed is refused.
+    results = json.loads((tmp_path / "val" / "results.json").read_text())
+    assert sorted(p.name for p in (tmp_path / "val" / "runs").iterdir()) == [
+        "2x2x2.json", "2x2x2_SA.json", "dense.json"]
+    (tmp_path / "val" / "runs" / "2x2x2_SA.json").unlink()
+    (tmp_path / "val").rename(tmp_path / "moved")
+    again = CliRunner().invoke(main, ["--probes", str(BUNDLED_PROBES), "--out",
+                                      str(tmp_path / "moved"), "--config", "toy",
+                                      "--patterns", "2x2x2"])
+    assert again.exit_code == 0, again.output
+    resumed = json.loads((tmp_path / "moved" / "results.json").read_text())
+    for key, result in results.items():
+        assert {k: v for k, v in resumed[key].items() if k != "seconds"} == \
+            {k: v for k, v in result.items() if k != "seconds"}, key
+    other = CliRunner().invoke(main, ["--probes", str(BUNDLED_PROBES), "--out",
+                                      str(tmp_path / "moved"), "--config", "toy",
+                                      "--patterns", "2x2x2", "--seed", "1"])
+    assert other.exit_code != 0 and "(differing: seed)" in other.output
 
 
 def test_ratio_table_at_toy_size(tmp_path):

@@ -3,7 +3,6 @@ and that render-dataset accepts every class."""
 
 import json
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -157,7 +156,7 @@ def test_cli_writes_sets_render_dataset_reads_back_and_reruns_resume(tmp_path):
             assert (tmp_path / "a" / name / file).read_bytes() == \
                 (tmp_path / "b" / name / file).read_bytes(), again.output
     refused = make(tmp_path / "a", "--class", "wood", "--count", "2", "--resolution", "64")
-    assert refused.exit_code != 0 and "other options" in refused.output
+    assert refused.exit_code != 0 and "other options (differing: resolution)" in refused.output
 
 
 def test_render_dataset_accepts_every_class(tmp_path):

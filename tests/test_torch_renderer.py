@@ -131,6 +131,38 @@ def test_probes_of_one_bank_must_share_a_size():
         ProbeBank([np.ones((8, 16, 3)), np.ones((16, 32, 3))])
 
 
+def flat_inputs(batch=2, size=4):
+    """Valid render inputs: grey albedo, flat normals, specular 0.04, roughness 0.2."""
+    return (torch.full((batch, 3, size, size), 0.5), tilted_normals([0.0] * size, torch.float32)
+            .expand(batch, 3, size, size), torch.full((batch, 3), 0.04), torch.full((batch,), 0.2))
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda a, n, s, r: (a.permute(0, 2, 3, 1), n, s, r),
+     r"albedo must be \(B, 3, H, W\), got shape \(2, 4, 4, 3\)"),
+    (lambda a, n, s, r: (a, n[:, :, :2], s, r), r"normal must have the albedo's shape"),
+    (lambda a, n, s, r: (a, n, s[:, :1], r), r"specular must be \(2, 3\), got shape \(2, 1\)"),
+    (lambda a, n, s, r: (a, n, s, r[:1]), r"roughness must hold 2 values"),
+    (lambda a, n, s, r: (a, n, s, torch.tensor([0.2, 0.001])),
+     r"Ward roughness must lie in \[0.02, 1.0\], got values from 0.001 to 0.2"),
+    (lambda a, n, s, r: (a, n, s, torch.tensor([0.2, float("nan")])), r"Ward roughness"),
+])
+def test_render_refuses_bad_inputs_naming_them(change, message):
+    with pytest.raises(ValueError, match=message):
+        render(*change(*flat_inputs()), constant_bank(16, torch.float32), [0, 0])
+    with pytest.raises(ValueError, match=r"probe_index must be \(2,\) indices into a bank of 1"):
+        render(*flat_inputs(), constant_bank(16, torch.float32), [0, 1])
+
+
+def test_expose_refuses_black_and_misshaped_images():
+    images = torch.ones(3, 3, 4, 4)
+    images[1] = 0
+    with pytest.raises(ValueError, match=r"cannot expose images \[1\]: mean luminance \[0.0\]"):
+        expose(images)
+    with pytest.raises(ValueError, match=r"expose takes \(B, 3, H, W\) images"):
+        expose(images.permute(0, 2, 3, 1))
+
+
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
 def test_cuda_matches_cpu():
     rng = np.random.default_rng(4)

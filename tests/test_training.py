@@ -127,14 +127,24 @@ def test_resuming_gives_the_weights_of_an_uninterrupted_run(dataset, tmp_path):
     assert [load_checkpoint(p)["step"] for p in kept] == [6, 9, 12]
     for path in kept[1:]:  # as if killed just after the checkpoint of step 6
         path.unlink()
-    inode = kept[0].stat().st_ino
-    assert train(dataset, interrupted, *options).exit_code == 0
-    assert kept[0].stat().st_ino == inode  # resumed from it: a restart would have rewritten it
+    moved = tmp_path / "moved elsewhere"
+    interrupted.rename(moved)
+    first = moved / "checkpoints" / kept[0].name
+    inode = first.stat().st_ino
+    refused = train(dataset, moved, *options, "--learning-rate", "0.001")
+    assert refused.exit_code != 0
+    assert "(differing: optimizer.learning_rate)" in refused.output
+    # Output path, device and logging interval do not change the weights: it resumes.
+    resumed = train(dataset, moved, *options, "--log-every", "7", "--device", "cpu")
+    assert resumed.exit_code == 0, resumed.output
+    assert first.stat().st_ino == inode  # resumed from it: a restart would have rewritten it
+    assert json.loads((moved / "config.json").read_text())["out"] == str(moved)
     straight = load_checkpoint(checkpoint_files(tmp_path / "straight" / "checkpoints")[-1])
-    again = load_checkpoint(checkpoint_files(interrupted / "checkpoints")[-1])
+    again = load_checkpoint(checkpoint_files(moved / "checkpoints")[-1])
     assert again["step"] == straight["step"] == 12
     for name, tensor in straight["model"].items():
         assert torch.equal(tensor, again["model"][name]), name
+    assert again["history"]["test"] == straight["history"]["test"]
 
 
 def test_bad_input_gets_clear_errors(dataset, tmp_path):
@@ -150,7 +160,7 @@ def test_bad_input_gets_clear_errors(dataset, tmp_path):
                  "0").exit_code == 0
     other = train(dataset, tmp_path / "c", "--labeled-epochs", "2", "--self-augmented-epochs",
                   "0")
-    assert other.exit_code != 0 and "another configuration" in other.output
+    assert other.exit_code != 0 and "(differing: labeled_epochs)" in other.output
 
 
 def test_baseline_and_self_augmentation_share_the_labeled_schedule():
@@ -257,10 +267,13 @@ def test_training_on_labeled_maps_rendered_on_the_fly_and_fine_tuning(tmp_path):
             "--render-size", "48", "--labeled-epochs", "1", "--self-augmented-epochs", "0",
             *options])
 
-    result = train_on_maps(tmp_path / "maps")
+    # With self-augmentation from photos: the labeled maps' colors choose the unlabeled subset.
+    result = train_on_maps(tmp_path / "maps", "--self-augmented-epochs", "1", "--unlabeled",
+                           str(REPO / "scenes" / "photos"))
     assert result.exit_code == 0, result.output
     history = json.loads((tmp_path / "maps" / "history.json").read_text())
-    assert history["train"][-1]["step"] == 2 and history["test"] == []  # no dataset to test on
+    assert history["train"][-1]["step"] == 6 and history["test"] == []  # no dataset to test on
+    assert SELF_AUGMENTED in history["train"][-1]
     first = load_checkpoint(checkpoint_files(tmp_path / "maps" / "checkpoints")[-1])
 
     run = Run(TrainConfig(out=str(tmp_path / "tuned"), probes=str(BUNDLED_PROBES),

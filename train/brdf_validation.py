@@ -17,10 +17,16 @@ unlabeled spheres, clamp to the search space, render under a new lighting) and a
 Error, over the test set, each test BRDF under a lighting of its own: the MSE between the
 exposed renders of the estimated and the true BRDF under that lighting (``render_mse``), and
 the MSE of the two predicted values.
+
+Resume: each finished run's result is kept in ``OUT/runs/`` and read back, not retrained, when
+the same command is run again (a run's random stream depends on its name and the seed alone,
+so a resumed validation equals an uninterrupted one); a killed run is redone whole. The output
+path and the device may change between invocations (render.common.resume).
 """
 
 import csv
 import dataclasses
+import json
 import logging
 import time
 import zlib
@@ -39,12 +45,15 @@ from render.common.atomic_files import atomic_path, write_json  # noqa: E402
 from render.common.color import luminance  # noqa: E402
 from render.common.exposure import expose  # noqa: E402
 from render.common.probes import find_probes, load_probe  # noqa: E402
+from render.common.resume import continue_folder  # noqa: E402
 from render.torch_renderer.renderer import ProbeBank, render, sphere_normals  # noqa: E402
 from train import brdf_space  # noqa: E402
 from train.networks import NetworkConfig, HomogeneousNet  # noqa: E402
 from train.optimization import OptimizerConfig, make_optimizer  # noqa: E402
 
 log = logging.getLogger(__name__)
+MAY_CHANGE = ("out", "device")
+"""Options a resumed validation may change (render.common.resume)."""
 
 ALPHA_LEVELS = np.geomspace(0.02, 1.0, 29)
 """Every training roughness (even levels) and test roughness (odd levels) of the search space."""
@@ -235,6 +244,7 @@ def ratio_table(cfg, renderer, labeled_percents=RATIO_LABELED, unlabeled_percent
     """The paper's labeled-unlabeled ratio table: test render MSE per labeled percentage,
     without self-augmentation and with each unlabeled percentage that fits beside it. Writes
     ratio_table.csv and ratio_table.md; returns {labeled: {"no SA" or unlabeled: MSE}}."""
+    out = Path(cfg.out)
     table = {}
     for labeled_percent in labeled_percents:
         row = {}
@@ -242,9 +252,9 @@ def ratio_table(cfg, renderer, labeled_percents=RATIO_LABELED, unlabeled_percent
                                               if labeled_percent + u <= 100):
             labeled, unlabeled = brdf_space.random_split(labeled_percent, unlabeled_percent,
                                                          cfg.seed)
-            net, _ = train_run(cfg, renderer, labeled, unlabeled, unlabeled_percent > 0,
-                               f"ratio {labeled_percent} {unlabeled_percent}")
-            mse = float(evaluate(cfg, renderer, net)[0].mean())
+            name = f"ratio {labeled_percent} {unlabeled_percent}"
+            mse = finished_run(out, name, lambda: _ratio_run(
+                cfg, renderer, labeled, unlabeled, unlabeled_percent > 0, name))["render_mse"]
             row["no SA" if unlabeled_percent == 0 else unlabeled_percent] = mse
             log.info("ratio table: %s%% labeled, %s%% unlabeled: render MSE %.2e",
                      labeled_percent, unlabeled_percent, mse)
@@ -253,7 +263,6 @@ def ratio_table(cfg, renderer, labeled_percents=RATIO_LABELED, unlabeled_percent
     rows = [[str(p), *(f"{row[k]:.2e}" if k in row else "" for k in ["no SA",
                                                                       *unlabeled_percents])]
             for p, row in table.items()]
-    out = Path(cfg.out)
     with atomic_path(out / "ratio_table.csv") as tmp:
         with open(tmp, "w", newline="") as file:
             csv.writer(file).writerows([header, *rows])
@@ -267,23 +276,14 @@ def ratio_table(cfg, renderer, labeled_percents=RATIO_LABELED, unlabeled_percent
 def run(cfg, patterns=PATTERNS):
     """Every run of the protocol; writes the table (CSV, Markdown), heat maps and JSON."""
     out = Path(cfg.out)
-    out.mkdir(parents=True, exist_ok=True)
-    write_json(out / "config.json", dataclasses.asdict(cfg))
+    continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE)
     renderer = make_renderer(cfg)
     results = {}
     for pattern in ("dense",) + tuple(patterns):
         for self_augment in ((False,) if pattern == "dense" else (False, True)):
-            start = time.perf_counter()
-            mask = brdf_space.labeled_mask(pattern, cfg.seed)
-            net, _ = train_run(cfg, renderer, mask, ~mask, self_augment, pattern)
-            render_errors, parameter_errors = evaluate(cfg, renderer, net)
             key = f"{pattern}{' SA' if self_augment else ''}"
-            results[key] = {"pattern": pattern, "self_augmented": self_augment,
-                            "labeled": int(mask.sum()),
-                            "render_mse": float(render_errors.mean()),
-                            "parameter_mse": float(parameter_errors.mean()),
-                            "heat_map": heat_map(render_errors).tolist(),
-                            "seconds": round(time.perf_counter() - start, 1)}
+            results[key] = finished_run(out, key, lambda: _pattern_run(cfg, renderer, pattern,
+                                                                       self_augment))
             log.info("%s: render MSE %.5f, parameter MSE %.4f (%.0f s)", key,
                      results[key]["render_mse"], results[key]["parameter_mse"],
                      results[key]["seconds"])
@@ -291,6 +291,37 @@ def run(cfg, patterns=PATTERNS):
     _write_tables(out, results)
     _plot_heat_maps(out / "heat_maps.png", results, cfg.seed)
     return results, renderer
+
+
+def _ratio_run(cfg, renderer, labeled, unlabeled, self_augment, name):
+    """Train and evaluate one run of the ratio table; its result dict."""
+    net, _ = train_run(cfg, renderer, labeled, unlabeled, self_augment, name)
+    return {"render_mse": float(evaluate(cfg, renderer, net)[0].mean())}
+
+
+def _pattern_run(cfg, renderer, pattern, self_augment):
+    """Train and evaluate the run of one labeled set; its result dict."""
+    start = time.perf_counter()
+    mask = brdf_space.labeled_mask(pattern, cfg.seed)
+    net, _ = train_run(cfg, renderer, mask, ~mask, self_augment, pattern)
+    render_errors, parameter_errors = evaluate(cfg, renderer, net)
+    return {"pattern": pattern, "self_augmented": self_augment, "labeled": int(mask.sum()),
+            "render_mse": float(render_errors.mean()),
+            "parameter_mse": float(parameter_errors.mean()),
+            "heat_map": heat_map(render_errors).tolist(),
+            "seconds": round(time.perf_counter() - start, 1)}
+
+
+def finished_run(out, name, compute):
+    """The result dict of run ``name``: read from ``out/runs/`` when an earlier invocation
+    finished it, else ``compute()``d and written there (atomically) first."""
+    path = out / "runs" / f"{name.replace(' ', '_')}.json"
+    if path.is_file():
+        log.info("%s: finished earlier, read from %s", name, path)
+        return json.loads(path.read_text())
+    result = compute()
+    write_json(path, result)
+    return result
 
 
 def _patterns(results):

@@ -29,7 +29,7 @@ from PIL import Image
 
 from render.common.atomic_files import atomic_path
 from render.common.color import to_png_bytes
-from render.common.errors import InputError
+from render.common.errors import InputError, require_output_folder
 from render.common.exposure import expose
 from render.common.images import write_png
 from render.common.probes import load_probe
@@ -73,6 +73,7 @@ class EstimateConfig:
 def run(cfg):
     """Estimate the reduced SVBRDF of each photo of ``cfg`` and write the outputs; returns a
     report per photo (its output folder, network milliseconds and parameters)."""
+    require_output_folder(cfg.out)
     net = load_network(cfg.model, torch.device(cfg.device))
     size = net.config.input_size
     inputs = [read_photo(path, size) for path in cfg.photos]

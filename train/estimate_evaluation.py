@@ -44,7 +44,7 @@ from tqdm import tqdm
 
 from render.common.atomic_files import atomic_path
 from render.common.color import linear_to_srgb
-from render.common.errors import InputError
+from render.common.errors import InputError, require_output_folder
 from render.common.exposure import expose
 from render.common.probes import find_probes, load_probe
 from render.torch_renderer.renderer import ProbeBank, render, sphere_normals, ward_kernel
@@ -205,6 +205,7 @@ def held_out_probes(cfg):
 def run(cfg, net):
     """Evaluate ``net`` (evaluation mode) on the data of ``cfg``; write results.json and
     figure.png into ``cfg.out``; return the report dict."""
+    require_output_folder(cfg.out)
     probe_files = find_probes(cfg.probes)
     probe_names = [path.stem for path in probe_files]
     bank = ProbeBank([load_probe(path).radiance for path in probe_files], device=cfg.device)

@@ -6,11 +6,10 @@ log_roughness (1,); plus the sample's provenance dict.
 """
 
 import json
-from pathlib import Path
 
 import numpy as np
 
-from render.common.errors import InputError
+from render.common.errors import InputError, require_folder
 
 ARRAYS = ("image", "albedo", "normal", "log_specular", "log_roughness")
 
@@ -19,12 +18,16 @@ class LabeledDataset:
     """Samples of one split ('train', 'test' or None for all) of a dataset folder."""
 
     def __init__(self, folder, split="train"):
-        self.folder = Path(folder)
+        self.folder = require_folder(folder, "dataset folder")
         index_path = self.folder / "index.json"
         if not index_path.is_file():
             raise InputError(self.folder, "no index.json (not a finished render-dataset output "
                                           "folder)")
-        samples = json.loads(index_path.read_text())["samples"]
+        try:
+            samples = json.loads(index_path.read_text())["samples"]
+        except (UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError) as error:
+            raise InputError(index_path, f"cannot read the dataset index ({type(error).__name__}"
+                                         f": {error})") from None
         self.samples = [s for s in samples if split is None or s["split"] == split]
 
     def __len__(self):

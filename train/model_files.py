@@ -14,7 +14,6 @@ The shipped models live in ``models/`` of the repository (models/README.md is th
 import json
 from pathlib import Path
 
-import torch
 from safetensors import SafetensorError, safe_open
 from safetensors.torch import load_file, save_file
 

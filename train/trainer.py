@@ -5,7 +5,8 @@ then epochs that interleave self-augmented minibatches (train.self_augmentation)
 ones; without ``unlabeled`` data the same schedule runs on labeled minibatches alone (the
 baseline). Into ``out`` it writes:
 
-    config.json            the resolved configuration (a run with another one is refused)
+    config.json            the resolved configuration; a re-run continues only with the same
+                           options, except MAY_CHANGE (render.common.resume)
     checkpoints/           step-000001000.pt ... (train.checkpoints); a run resumes from the
                            newest and continues exactly as if it had not stopped
     tensorboard/           scalars (losses, learning rate, test errors) and example images
@@ -22,7 +23,6 @@ evaluates.
 """
 
 import dataclasses
-import json
 import logging
 import time
 from dataclasses import dataclass, field
@@ -40,6 +40,7 @@ from torch.utils.tensorboard import SummaryWriter  # noqa: E402
 from render.common.atomic_files import atomic_path, write_json  # noqa: E402
 from render.common.errors import InputError  # noqa: E402
 from render.common.probes import find_probes, load_probe  # noqa: E402
+from render.common.resume import continue_folder  # noqa: E402
 from render.torch_renderer.renderer import ProbeBank  # noqa: E402
 from train import distributed  # noqa: E402
 from train.checkpoints import checkpoint_files, load_checkpoint, save_checkpoint  # noqa: E402
@@ -56,6 +57,12 @@ from train.unlabeled_data import UnlabeledImages  # noqa: E402
 from train.unlabeled_selection import select_matching  # noqa: E402
 
 log = logging.getLogger(__name__)
+LABELED_COLORS_STREAM = 2 ** 32 - 1
+"""Second seed word of the random stream of the labeled samples whose colors choose the
+unlabeled subset; step ``index`` uses (seed, index), and no run reaches this many steps."""
+MAY_CHANGE = ("out", "device", "log_every", "checkpoint_every")
+"""Options that do not change the trained weights: a resumed run may use other values
+(render.common.resume), so a moved run folder, or a CPU run continued on a GPU, resumes."""
 
 
 @dataclass(frozen=True)
@@ -171,7 +178,8 @@ class Run:
     def _labeled_colors(self):
         """(N, 3) mean colors of labeled training images (for the unlabeled subset)."""
         if self.maps is not None:
-            images = self.maps.batch(np.random.default_rng([self.cfg.seed, -1]), 256)["image"]
+            rng = np.random.default_rng([self.cfg.seed, LABELED_COLORS_STREAM])
+            images = self.maps.batch(rng, 256)["image"]
             return images.mean((2, 3)).cpu().numpy()
         return np.stack([self.train_set[i]["image"].mean((1, 2))
                          for i in range(len(self.train_set))])
@@ -275,7 +283,7 @@ def run(cfg):
 def _train(cfg, place):
     out = Path(cfg.out)
     run_state = Run(cfg, place)  # checks the inputs before anything is written
-    _check_config(out, cfg, write=place.is_main)
+    continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE, write=place.is_main)
     newest = checkpoint_files(out / "checkpoints")
     if newest:
         run_state.resume(newest[-1])
@@ -308,18 +316,6 @@ def _train(cfg, place):
         writer.close()
     place.barrier()  # every process returns once the last checkpoint is written
     return run_state.history
-
-
-def _check_config(out, cfg, write):
-    """Refuse a run folder made with another configuration; else write config.json if
-    ``write`` (the main process) and it is not there yet."""
-    path = out / "config.json"
-    resolved = json.loads(json.dumps(dataclasses.asdict(cfg)))
-    if path.is_file():
-        if json.loads(path.read_text()) != resolved:
-            raise InputError(out, "holds a run with another configuration; use another --out")
-    elif write:
-        write_json(path, resolved)
 
 
 def _log_interval(run_state, interval, interval_start, index):

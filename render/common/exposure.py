@@ -36,8 +36,16 @@ def expose(hdr, key=DEFAULT_KEY, reference=None):
     """Auto-exposure and clamping of (B, 3, H, W) HDR torch tensors, as ``expose_numpy`` does
     to each image: each image scaled so its mean Rec. 709 luminance is ``key``, then clamped to
     [0, 1]. With ``reference`` (same shape), each image takes the scale that exposes its
-    reference image instead (to compare two renders under one camera setting)."""
+    reference image instead (to compare two renders under one camera setting). Raises
+    ValueError for another shape, or where a metered image is black or not finite."""
     metered = hdr if reference is None else reference
+    if hdr.ndim != 4 or hdr.shape[1] != 3 or metered.shape != hdr.shape:
+        raise ValueError(f"expose takes (B, 3, H, W) images (and a reference of their shape), "
+                         f"got {tuple(hdr.shape)} and {tuple(metered.shape)}")
     weights = metered.new_tensor(REC709_LUMINANCE)
     mean = (metered * weights[:, None, None]).sum(1).mean((1, 2))
+    bad = ~(mean.isfinite() & (mean > 0))
+    if bad.any():
+        raise ValueError(f"cannot expose images {bad.nonzero().flatten().tolist()}: mean "
+                         f"luminance {mean[bad].tolist()}")
     return (hdr * (key / mean)[:, None, None, None]).clamp(0, 1)

@@ -14,7 +14,7 @@ from PIL import Image
 
 from render.common.atomic_files import atomic_path
 from render.common.color import to_png_bytes
-from render.common.errors import InputError
+from render.common.errors import InputError, require_file
 
 LDR_SUFFIXES = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp"}
 HDR_SUFFIXES = {".exr", ".hdr"}
@@ -27,9 +27,7 @@ def is_hdr(path):
 
 def read_image(path):
     """Read an image file as float32 (H, W, C) with C in {1, 3}; alpha is dropped."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(path, "file not found")
+    path = require_file(path, "image")
     suffix = path.suffix.lower()
     if suffix == ".exr":
         pixels = _read_exr(path)

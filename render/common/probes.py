@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from render.common.errors import InputError
+from render.common.errors import InputError, require_file, require_folder
 from render.common.images import HDR_SUFFIXES, read_image
 
 log = logging.getLogger(__name__)
@@ -44,9 +44,7 @@ class Probe:
 
 def find_probes(folder):
     """Sorted probe files (``.exr``, ``.hdr``) directly in ``folder``."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError(folder, "probe folder not found")
+    folder = require_folder(folder, "probe folder")
     files = sorted(p for p in folder.iterdir() if p.suffix.lower() in HDR_SUFFIXES)
     if not files:
         raise InputError(folder, "no probes (.exr or .hdr files) in this folder")
@@ -55,7 +53,7 @@ def find_probes(folder):
 
 def load_probe(path):
     """Read, validate and white-balance one probe file."""
-    path = Path(path)
+    path = require_file(path, "probe")
     if path.suffix.lower() not in HDR_SUFFIXES:
         raise InputError(path, "a probe must be an HDR image (.exr or .hdr)")
     radiance = read_image(path)

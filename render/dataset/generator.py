@@ -24,9 +24,9 @@ import numpy as np
 from tqdm import tqdm
 
 from render.common.atomic_files import write_json
-from render.common.errors import InputError
 from render.common.exposure import DEFAULT_KEY
 from render.common.probes import find_probes, load_probe
+from render.common.resume import continue_folder
 from render.dataset.contact_sheet import write_contact_sheet
 from render.dataset.tasks import TaskRenderer, plan_tasks, write_task
 from render.materials.reduced_svbrdf import find_materials, load_material
@@ -34,8 +34,9 @@ from render.mitsuba_reference.scene import DEFAULT_SAMPLER
 
 log = logging.getLogger(__name__)
 CONTACT_SHEET_ROWS = 12
-# Changing these does not change the samples, so a resumed run may use other values.
-RESUMABLE_FIELDS = ("workers", "out", "ray", "ray_chunk", "ray_cpus_per_task")
+MAY_CHANGE = ("workers", "out", "ray", "ray_chunk", "ray_cpus_per_task")
+"""Options that do not change the samples: a resumed run may use other values
+(render.common.resume)."""
 
 
 @dataclass(frozen=True)
@@ -107,20 +108,6 @@ def validate_inputs(cfg):
     return materials, probes
 
 
-def _check_resume(cfg, out):
-    """Refuse to mix samples of two different configurations in one folder."""
-    path = out / "config.json"
-    if not path.exists():
-        return
-    previous = json.loads(path.read_text())
-    current = dataclasses.asdict(cfg)
-    differing = sorted(k for k in current if k not in RESUMABLE_FIELDS
-                       and previous.get(k) != current[k])
-    if differing:
-        raise InputError(path, f"this folder holds a dataset made with other options "
-                               f"(differing: {', '.join(differing)}); use a new --out")
-
-
 _worker = None
 
 
@@ -138,9 +125,7 @@ def run(cfg):
     cfg.validate()
     out = Path(cfg.out)
     materials, probes = validate_inputs(cfg)
-    _check_resume(cfg, out)
-    out.mkdir(parents=True, exist_ok=True)
-    write_json(out / "config.json", dataclasses.asdict(cfg))
+    continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE)
     for stale in [*out.glob("samples/.*.tmp*"), *out.glob("tasks/.*.tmp*")]:
         stale.unlink()  # temporary files of a killed run; their task is redone below
 

@@ -9,13 +9,13 @@ refused, never overwritten.
 import json
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 from tqdm import tqdm
 
-from render.common.errors import InputError
+from render.common.errors import InputError, require_output_folder
 from render.common.exposure import expose_numpy
 from render.common.probes import load_probe
+from render.common.resume import differing_options
 from render.materials.material_sheet import write_material_sheet
 from render.materials.procedural.augment import material_class_of
 from render.materials.procedural.material_set import draw_metadata, regenerate, set_name
@@ -50,7 +50,7 @@ class MakeMaterialsConfig:
 def run(cfg):
     """Write the sets of ``cfg`` that are not there yet and a contact sheet of the first few;
     returns a summary (counts, time, the contact sheet's path)."""
-    out = Path(cfg.out)
+    out = require_output_folder(cfg.out)
     sources = None if cfg.augment is None else _real_sets(cfg.augment, cfg.material_class)
     probe = None if cfg.probe is None else load_probe(cfg.probe)  # checked before any work
     start = time.perf_counter()
@@ -98,8 +98,12 @@ def _check_same(folder, metadata):
         existing = json.loads(path.read_text()).get("metadata")
     except (OSError, json.JSONDecodeError):
         existing = None
-    if existing != json.loads(json.dumps(metadata)):
-        raise InputError(folder, "exists but was made with other options; use another --out")
+    if not isinstance(existing, dict):
+        raise InputError(folder, "exists but is not a set of make-materials; use another --out")
+    differing = differing_options(existing, metadata, may_change=())
+    if differing:
+        raise InputError(folder, f"exists but was made with other options (differing: "
+                                 f"{', '.join(differing)}); use another --out")
 
 
 def _renders(svbrdfs, probe, spp):

@@ -35,7 +35,7 @@ from PIL import Image
 
 from render.common.atomic_files import write_json
 from render.common.color import srgb_to_linear
-from render.common.errors import InputError
+from render.common.errors import InputError, require_folder
 from render.common.images import IMAGE_SUFFIXES, is_hdr, read_image, write_exr
 from render.materials.map_names import is_directx_normal, map_role
 
@@ -72,9 +72,7 @@ class ReducedSVBRDF:
 
 def find_materials(folder):
     """Sorted material sub-folders of ``folder``."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError(folder, "material folder not found")
+    folder = require_folder(folder, "folder of material folders")
     subfolders = sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith("."))
     if not subfolders:
         raise InputError(folder, "no material sub-folders (one folder per material is expected)")

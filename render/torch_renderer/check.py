@@ -20,6 +20,7 @@ import torch
 from tqdm import tqdm
 
 from render.common.atomic_files import write_json
+from render.common.errors import require_output_folder
 from render.common.exposure import expose_numpy
 from render.common.images import write_png
 from render.common.probes import find_probes, load_probe
@@ -159,5 +160,7 @@ def compare(probes_dir, svbrdfs_dir, size=64, spp=1024, roughness=DEFAULT_ROUGHN
 
 def run(cfg):
     """``check-renderer``: ``compare`` on the cases of ``cfg``; its report."""
+    if cfg.out is not None:
+        require_output_folder(cfg.out)
     return compare(cfg.probes, cfg.svbrdfs, cfg.size, cfg.spp, cfg.roughness,
                    cfg.max_view_angle, cfg.seed, cfg.out)

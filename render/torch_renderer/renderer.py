@@ -48,6 +48,7 @@ import torch
 
 from render.common.color import REC709_LUMINANCE
 from render.common.probes import latitude_weights, plane_irradiance
+from render.materials.reduced_svbrdf import ALPHA_RANGE
 
 DIFFUSE_BLOCK_ANGLE = 0.1  # radians
 GLOSSY_BLOCK_ANGLE = 0.05
@@ -378,6 +379,7 @@ def render(albedo, normal, specular, roughness, probes, probe_index, rotation_de
     probes: a ProbeBank; probe_index: (B,) long. rotation_deg: (B,) degrees about +z
     (default 0). view: (B, 3) unit directions toward the camera, z > 0 (default +z).
     """
+    _check_inputs(albedo, normal, specular, roughness, probes, probe_index)
     batch, _, height, width = albedo.shape
     dtype, device = albedo.dtype, albedo.device
     probe_index = torch.as_tensor(probe_index, device=device).long()
@@ -412,6 +414,30 @@ def render(albedo, normal, specular, roughness, probes, probe_index, rotation_de
 
     facing = ((unit_normal * view[:, :, None, None]).sum(1, keepdim=True) > 0).to(dtype)
     return (albedo * diffuse + specular[:, :, None, None] * glossy) * facing
+
+
+def _check_inputs(albedo, normal, specular, roughness, probes, probe_index):
+    if albedo.ndim != 4 or albedo.shape[1] != 3:
+        raise ValueError(f"albedo must be (B, 3, H, W), got shape {tuple(albedo.shape)}")
+    batch = albedo.shape[0]
+    if normal.shape != albedo.shape:
+        raise ValueError(f"normal must have the albedo's shape {tuple(albedo.shape)}, got "
+                         f"{tuple(normal.shape)}")
+    if specular.shape != (batch, 3):
+        raise ValueError(f"specular must be ({batch}, 3), got shape {tuple(specular.shape)}")
+    if roughness.numel() != batch:
+        raise ValueError(f"roughness must hold {batch} values, got shape "
+                         f"{tuple(roughness.shape)}")
+    low, high = ALPHA_RANGE
+    alpha = roughness.detach()
+    if not (torch.isfinite(alpha).all() and (alpha >= low * (1 - 1e-4)).all()
+            and (alpha <= high * (1 + 1e-4)).all()):
+        raise ValueError(f"Ward roughness must lie in [{low}, {high}], got values from "
+                         f"{alpha.min().item():.4g} to {alpha.max().item():.4g}")
+    index = torch.as_tensor(probe_index)
+    if index.shape != (batch,) or (index < 0).any() or (index >= len(probes)).any():
+        raise ValueError(f"probe_index must be ({batch},) indices into a bank of {len(probes)} "
+                         f"probes, got {index.tolist()}")
 
 
 def sphere_normals(size, dtype=torch.float32, device="cpu"):
