@@ -316,7 +316,8 @@ def markdown():
         "",
         "Every case must end with a non-zero exit status and one line `Error: ...` that "
         "names the bad path (where there is one) and contains the message below; no "
-        "traceback; and a file already in the output folder is left as it was.",
+        "traceback; nothing written into the output folder, and a file already there left as it "
+        "was.",
         "",
     ]
     commands = list(dict.fromkeys(case[0] for case in CASES))

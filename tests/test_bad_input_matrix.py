@@ -1,6 +1,6 @@
 """Every command line against every bad form of its arguments (tests/bad_input_cases.py): a
 non-zero exit, one ``Error:`` line naming the path and the problem, no traceback, nothing
-already in the output folder lost; and docs/reliability.md generated from the same table."""
+written into the output folder and nothing already there lost; and docs/reliability.md generated from the same table."""
 
 import pytest
 from click.testing import CliRunner
@@ -44,6 +44,7 @@ def test_bad_input_gets_one_clear_line(bad_inputs, tmp_path, command, argument, 
     if named is not None:
         assert str(getattr(bad_inputs, named)) in errors[0]
     assert (out / "kept.txt").read_text() == KEPT
+    assert [p.name for p in out.iterdir()] == ["kept.txt"]  # a refused run writes nothing
     assert bad_inputs.text_file.read_text() == text_file
     assert not (bad_inputs.root / "PAYLOAD_RAN").exists()
 

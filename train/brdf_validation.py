@@ -276,6 +276,8 @@ def ratio_table(cfg, renderer, labeled_percents=RATIO_LABELED, unlabeled_percent
 def run(cfg, patterns=PATTERNS):
     """Every run of the protocol; writes the table (CSV, Markdown), heat maps and JSON."""
     out = Path(cfg.out)
+    for path in find_probes(cfg.probes):  # bad probes fail before the folder is claimed
+        load_probe(path)
     continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE)
     renderer = make_renderer(cfg)
     results = {}
