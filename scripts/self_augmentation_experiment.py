@@ -158,9 +158,9 @@ def plot_ratios(path, results):
               help="The first POOL sets may be labeled; the others give unlabeled photos.")
 @click.option("--unlabeled-probes", default=10, show_default=True,
               help="Training probes the unlabeled photos are rendered under.")
-@click.option("--pretrain-epochs", default=6, show_default=True)
-@click.option("--epochs", default=4, show_default=True, help="Epochs of both arms.")
-@click.option("--epoch-samples", default=1600, show_default=True)
+@click.option("--pretrain-epochs", default=4, show_default=True)
+@click.option("--epochs", default=3, show_default=True, help="Epochs of both arms.")
+@click.option("--epoch-samples", default=1200, show_default=True)
 @click.option("--samples", default=48, show_default=True, help="Held-out samples evaluated.")
 @click.option("--seeds", default="0,1,2", show_default=True, help="Comma-separated seeds.")
 def main(sets, probes, heldout, heldout_probes, out, labeled, pool, unlabeled_probes,

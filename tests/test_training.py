@@ -39,6 +39,15 @@ def dataset(tmp_path_factory):
     return out
 
 
+@pytest.fixture(scope="module")
+def trained_run(dataset, tmp_path_factory):
+    """One epoch of labeled training, shared by the tests that need a trained run (read only)."""
+    out = tmp_path_factory.mktemp("trained") / "run"
+    result = train(dataset, out, "--labeled-epochs", "1", "--self-augmented-epochs", "0")
+    assert result.exit_code == 0, result.output
+    return out
+
+
 def train(dataset, out, *options):
     return CliRunner().invoke(sa_train, ["--dataset", str(dataset), "--out", str(out),
                                          "--probes", str(BUNDLED_PROBES), *TINY_NETWORK,
@@ -63,13 +72,11 @@ def test_self_augmented_training_end_to_end(dataset, tmp_path):
     assert newest["step"] == 4 + 2 * 8  # 4 labeled steps per epoch; 4 + 4 per SA epoch
 
 
-def test_estimate_from_photos_writes_maps_scene_and_preview(dataset, tmp_path, mi):
-    assert train(dataset, tmp_path / "run", "--labeled-epochs", "1", "--self-augmented-epochs",
-                 "0").exit_code == 0
+def test_estimate_from_photos_writes_maps_scene_and_preview(trained_run, tmp_path, mi):
     photo = np.random.default_rng(0).random((40, 50, 3)).astype(np.float32)
     write_png(tmp_path / "wood photo.png", photo)
     result = CliRunner().invoke(sa_estimate, [str(tmp_path / "wood photo.png"), "--model",
-                                              str(tmp_path / "run"), "--out", str(tmp_path / "est"),
+                                              str(trained_run), "--out", str(tmp_path / "est"),
                                               "--probe", str(BUNDLED_PROBES / "park.exr")])
     assert result.exit_code == 0, result.output
     report = json.loads(result.stdout.strip().splitlines()[-1])
@@ -91,10 +98,8 @@ def test_estimate_from_photos_writes_maps_scene_and_preview(dataset, tmp_path, m
         0.05 * reference.mean()
 
 
-def test_estimate_refuses_bad_photos_and_foreign_checkpoints(dataset, tmp_path):
-    assert train(dataset, tmp_path / "run", "--labeled-epochs", "1", "--self-augmented-epochs",
-                 "0").exit_code == 0
-    model = checkpoint_files(tmp_path / "run" / "checkpoints")[-1]
+def test_estimate_refuses_bad_photos_and_foreign_checkpoints(trained_run, tmp_path):
+    model = checkpoint_files(trained_run / "checkpoints")[-1]
     (tmp_path / "notes.jpg").write_text("not a photo")
     write_png(tmp_path / "good.png", np.full((32, 32, 3), 0.5, np.float32))
     bad_photo = CliRunner().invoke(sa_estimate, [str(tmp_path / "good.png"),
@@ -147,7 +152,7 @@ def test_resuming_gives_the_weights_of_an_uninterrupted_run(dataset, tmp_path):
     assert again["history"]["test"] == straight["history"]["test"]
 
 
-def test_bad_input_gets_clear_errors(dataset, tmp_path):
+def test_bad_input_gets_clear_errors(dataset, trained_run, tmp_path):
     (tmp_path / "empty").mkdir()
     empty = train(dataset, tmp_path / "a", "--unlabeled", str(tmp_path / "empty"))
     assert empty.exit_code != 0 and "no unlabeled images" in empty.output
@@ -156,9 +161,7 @@ def test_bad_input_gets_clear_errors(dataset, tmp_path):
                                                str(BUNDLED_PROBES), "--network", "small"])
     assert wrong_size.exit_code != 0 and "samples are 32x32" in wrong_size.output
     assert not (tmp_path / "b").exists()  # a refused run writes nothing
-    assert train(dataset, tmp_path / "c", "--labeled-epochs", "1", "--self-augmented-epochs",
-                 "0").exit_code == 0
-    other = train(dataset, tmp_path / "c", "--labeled-epochs", "2", "--self-augmented-epochs",
+    other = train(dataset, trained_run, "--labeled-epochs", "2", "--self-augmented-epochs",
                   "0")
     assert other.exit_code != 0 and "(differing: labeled_epochs)" in other.output
 

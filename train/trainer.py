@@ -14,8 +14,8 @@ baseline). Into ``out`` it writes:
     loss_curves.png        training losses and test errors over the steps
     examples.png           the newest evaluation's examples (input, albedo, normals)
 
-It logs a line every ``log_every`` steps (losses, ms per step, time left) and evaluates on the
-test split (train.evaluation) at the end of every epoch.
+It logs a line every ``log_every`` steps and at every checkpoint (losses, ms per step, time
+left) and evaluates on the test split (train.evaluation) at the end of every epoch.
 
 Under ``torchrun`` the processes train one network data-parallel (train.distributed): each
 takes its shard of every global minibatch of ``batch_size``, and only rank 0 writes and
@@ -303,14 +303,16 @@ def _train(cfg, place):
         for name, value in terms.items():
             writer.add_scalar(f"train/{step.kind}/{name}", value, index + 1)
         writer.add_scalar("train/learning_rate", run_state.scheduler.get_last_lr()[0], index + 1)
-        if (index + 1) % cfg.log_every == 0 or schedule.ends_epoch(index):
+        checkpoint_due = (index + 1) % cfg.checkpoint_every == 0
+        # A logged interval never spans a checkpoint, so a resumed run logs the same means.
+        if (index + 1) % cfg.log_every == 0 or schedule.ends_epoch(index) or checkpoint_due:
             interval_start = _log_interval(run_state, interval, interval_start, index)
             interval = []
         if schedule.ends_epoch(index):
             _evaluate(run_state, writer, step.epoch)
             save_checkpoint(out / "checkpoints", run_state.state())
             interval_start = time.perf_counter()  # ms per step counts training steps only
-        elif (index + 1) % cfg.checkpoint_every == 0:
+        elif checkpoint_due:
             save_checkpoint(out / "checkpoints", run_state.state())
     if writer is not None:
         writer.close()

@@ -12,16 +12,22 @@ from pathlib import Path
 
 import numpy as np
 
+from render.common.errors import InputError
+
 
 @contextlib.contextmanager
 def atomic_path(path):
-    """Yield a temporary path beside ``path``; rename it to ``path`` if the block succeeds."""
+    """Yield a temporary path beside ``path``; rename it to ``path`` if the block succeeds.
+    A failed write (disk full, no permission) raises InputError naming ``path``; whatever
+    ``path`` held before is kept."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
         yield tmp
         os.replace(tmp, path)
+    except OSError as error:
+        raise InputError(path, f"cannot write ({error.strerror or error})") from None
     finally:
         tmp.unlink(missing_ok=True)
 

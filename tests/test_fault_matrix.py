@@ -1,0 +1,187 @@
+"""The fault matrix: ``render-dataset``, ``sa-train`` and ``sa-validate`` killed with SIGKILL at
+seeded random moments, then run again with the same command, end exactly as an uninterrupted
+run: identical dataset files, bit-identical weights and history, identical validation results;
+and no file under its final name is ever partial. Also: a disk that fills up (a file-size
+limit) and a truncated checkpoint give one-line errors naming the path, and the next good run
+completes. Marked slow: CI runs them after the quick suite (``make test-slow``).
+
+Not covered: a read-only output folder. These tests run as root on CI, and root writes into
+read-only folders, so the case cannot be produced here.
+"""
+
+import json
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO
+from train.checkpoints import checkpoint_files, load_checkpoint
+
+pytestmark = pytest.mark.slow
+KILLS = 5
+UNCOMPARED = {"ms_per_step", "seconds", "out"}
+"""Fields that measure time or name the output folder, not results: left out of comparisons."""
+
+COMMANDS = {
+    "render-dataset": ("render.cli.render_dataset", lambda out: [
+        "--probes", str(BUNDLED_PROBES), "--svbrdfs", str(BUNDLED_MATERIALS), "--out", str(out),
+        "--resolution", "16", "--render-size", "32", "--rotations", "2", "--crops", "2",
+        "--spp", "4", "--test-materials", "0.34", "--test-probes", "0.34"]),
+    "sa-train": ("train.cli.sa_train", lambda out: [
+        "--labeled-maps", str(BUNDLED_MATERIALS), "--probes", str(BUNDLED_PROBES), "--out",
+        str(out), "--network", "small", "--input-size", "32", "--levels", "3", "--render-size",
+        "48", "--epoch-samples", "32", "--batch-size", "8", "--labeled-epochs", "2",
+        "--self-augmented-epochs", "1", "--unlabeled", str(REPO / "scenes" / "photos"),
+        "--checkpoint-every", "3", "--log-every", "2"]),
+    "sa-validate": ("train.cli.sa_validate", lambda out: [
+        "--probes", str(BUNDLED_PROBES), "--out", str(out), "--config", "toy", "--patterns",
+        "2x2x2"]),
+}
+
+
+def run(command, out, **options):
+    module, argv = COMMANDS[command]
+    return subprocess.run([sys.executable, "-m", module, *argv(out)], cwd=REPO,
+                          capture_output=True, text=True, **options)
+
+
+def files(folder):
+    """Files under ``folder`` by relative path, temporaries (``.name.tmpPID``) and the
+    append-only TensorBoard logs left out."""
+    return {str(p.relative_to(folder)): p for p in sorted(Path(folder).rglob("*"))
+            if p.is_file() and not (p.name.startswith(".") and ".tmp" in p.name)
+            and "tensorboard" not in p.parts}
+
+
+def assert_complete(path):
+    """Fail if ``path`` is not a whole file of its kind."""
+    if path.suffix == ".json":
+        json.loads(path.read_text())
+    elif path.suffix == ".npz":
+        with np.load(path) as data:
+            for name in data.files:
+                data[name]
+    elif path.suffix == ".pt":
+        load_checkpoint(path)
+    elif path.suffix == ".png":
+        with Image.open(path) as image:
+            image.load()
+    else:
+        assert path.suffix in (".csv", ".md"), path
+
+
+def comparable(value):
+    if isinstance(value, dict):
+        return {k: comparable(v) for k, v in value.items() if k not in UNCOMPARED}
+    if isinstance(value, list):
+        return [comparable(v) for v in value]
+    return value
+
+
+def result_of(command, out):
+    """What must equal an uninterrupted run's: {name: comparable content}."""
+    found = files(out)
+    if command == "render-dataset":
+        return {name: comparable(json.loads(path.read_text())) if path.suffix == ".json"
+                else path.read_bytes() for name, path in found.items()}
+    if command == "sa-train":
+        newest = load_checkpoint(checkpoint_files(out / "checkpoints")[-1])
+        weights = {name: tensor.numpy().tobytes() for name, tensor in newest["model"].items()}
+        return {"checkpoints": [p.name for p in checkpoint_files(out / "checkpoints")],
+                "weights": weights, "history": comparable(newest["history"]),
+                "history.json": comparable(json.loads(found["history.json"].read_text()))}
+    return {name: comparable(json.loads(path.read_text())) for name, path in found.items()
+            if name.endswith(".json")}
+
+
+def kill_at_random_moment(command, out, rng, files_at_end):
+    """Start ``command`` and SIGKILL it once ``out`` holds a random number of its final files
+    (fewer than ``files_at_end``), plus a random fraction of a second; returns True if it was
+    killed (False: it finished first)."""
+    module, argv = COMMANDS[command]
+    target, extra = int(rng.integers(files_at_end)), float(rng.uniform(0.0, 0.5))
+    process = subprocess.Popen([sys.executable, "-m", module, *argv(out)], cwd=REPO,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    while process.poll() is None and (not out.exists() or len(files(out)) < target):
+        time.sleep(0.005)
+    time.sleep(extra)
+    killed = process.poll() is None
+    process.kill()
+    process.wait()
+    return killed
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    """Each command's result when run once without faults, and its number of files."""
+    results = {}
+    for command in COMMANDS:
+        out = tmp_path_factory.mktemp("uninterrupted") / command
+        finished = run(command, out)
+        assert finished.returncode == 0, finished.stderr
+        results[command] = (result_of(command, out), len(files(out)))
+    return results
+
+
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_killed_runs_end_as_uninterrupted_ones(command, uninterrupted, tmp_path):
+    expected, files_at_end = uninterrupted[command]
+    rng = np.random.default_rng(list(COMMANDS).index(command))
+    killed = 0
+    for kill in range(KILLS):
+        out = tmp_path / f"kill-{kill}"
+        killed += kill_at_random_moment(command, out, rng, files_at_end)
+        for path in files(out).values():  # never a partial file under its final name
+            assert_complete(path)
+        again = run(command, out)
+        assert again.returncode == 0, again.stderr
+        assert result_of(command, out) == expected, f"kill {kill}"
+    assert killed >= KILLS - 1  # the moments fall while the command runs
+
+
+def limit_file_size(limit_bytes):
+    def apply():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
+    return apply
+
+
+@pytest.mark.parametrize("command, limit", [("render-dataset", 20_000), ("sa-train", 200_000),
+                                            ("sa-validate", 5_000)])
+def test_full_disk_is_one_line_and_the_next_run_completes(command, limit, uninterrupted,
+                                                          tmp_path):
+    out = tmp_path / "out"
+    full = run(command, out, preexec_fn=limit_file_size(limit))
+    assert full.returncode != 0
+    assert "Traceback" not in full.stderr, full.stderr
+    error = full.stderr.strip().splitlines()[-1]
+    assert error.startswith(f"Error: {out}") and "File too large" in error, error
+    for path in files(out).values():
+        assert_complete(path)
+    again = run(command, out)
+    assert again.returncode == 0, again.stderr
+    assert result_of(command, out) == uninterrupted[command][0]
+
+
+def test_truncated_checkpoint_is_named_and_the_run_resumes_without_it(uninterrupted, tmp_path):
+    out = tmp_path / "run"
+    assert run("sa-train", out).returncode == 0
+    kept = checkpoint_files(out / "checkpoints")
+    newest = kept[-1]
+    newest.write_bytes(newest.read_bytes()[:1000])
+    for path in kept[:-1]:  # the run is at its newest checkpoint's step only
+        path.unlink()
+    truncated = run("sa-train", out)
+    assert truncated.returncode != 0 and "Traceback" not in truncated.stderr
+    error = truncated.stderr.strip().splitlines()[-1]
+    assert error.startswith(f"Error: {newest}: cannot read checkpoint safely"), error
+    newest.unlink()  # the user removes it: the run starts again and ends as uninterrupted
+    again = run("sa-train", out)
+    assert again.returncode == 0, again.stderr
+    expected = uninterrupted["sa-train"][0]
+    assert result_of("sa-train", out) == expected
