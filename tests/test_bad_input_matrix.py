@@ -1,4 +1,4 @@
-"""Every command line against every bad form of its arguments (tests/bad_input_cases.py): a
+"""Every command line against every bad form of its arguments (tests/reliability_cases.py): a
 non-zero exit, one ``Error:`` line naming the path and the problem, no traceback, nothing
 written into the output folder and nothing already there lost; and docs/reliability.md generated from the same table."""
 
@@ -8,7 +8,7 @@ from click.testing import CliRunner
 from render.cli.check_renderer import main as check_renderer
 from render.cli.make_materials import main as make_materials
 from render.cli.render_dataset import main as render_dataset
-from tests.bad_input_cases import CASES, DOC, make_bad_inputs, markdown
+from tests.reliability_cases import CASES, DOC, make_bad_inputs, markdown
 from train.cli.sa_estimate import main as sa_estimate
 from train.cli.sa_evaluate import main as sa_evaluate
 from train.cli.sa_train import main as sa_train
@@ -50,4 +50,4 @@ def test_bad_input_gets_one_clear_line(bad_inputs, tmp_path, command, argument, 
 
 
 def test_reliability_doc_is_generated_from_the_cases():
-    assert DOC.read_text() == markdown(), "run: .venv/bin/python -m tests.bad_input_cases"
+    assert DOC.read_text() == markdown(), "run: .venv/bin/python -m tests.reliability_cases"

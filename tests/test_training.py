@@ -10,10 +10,11 @@ import torch
 from click.testing import CliRunner
 
 from render.cli.render_dataset import main as render_dataset
+from render.common.exposure import expose
 from render.common.probes import find_probes, load_probe
 from render.materials.reduced_svbrdf import load_material
 from render.mitsuba_reference.scene import PlanarSampleRenderer
-from render.torch_renderer.renderer import ProbeBank
+from render.torch_renderer.renderer import ProbeBank, render
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO, write_png
 from train.checkpoints import checkpoint_files, load_checkpoint
 from train.cli.sa_estimate import main as sa_estimate
@@ -185,14 +186,35 @@ def test_self_augmented_minibatch_is_a_valid_labeled_pair():
     probes = ProbeBank([load_probe(p).radiance for p in find_probes(BUNDLED_PROBES)])
     lightings = random_lightings(np.random.default_rng(0), 3, [0, 2], max_view_angle=20.0)
     assert set(lightings[0]) <= {0, 2}
-    batch = self_augmented_batch(net, torch.rand(3, 3, 16, 16), probes, lightings, (-3.0, 0.0))
+    net.train(False)
+    net(torch.rand(4, 3, 16, 16) * 0.1)  # running statistics away from their initial values
+    running = [buffer.clone() for buffer in net.buffers()]
+    photos = torch.rand(3, 3, 16, 16)
+    batch = self_augmented_batch(net, photos, probes, lightings, (-3.0, -1.0))
+    assert not net.training  # the mode is restored
+    for buffer, before in zip(net.buffers(), running):  # the provisional pass trains nothing
+        assert torch.equal(buffer, before)
     assert batch["image"].shape == (3, 3, 16, 16)
     assert 0 <= batch["image"].min() and batch["image"].max() <= 1
-    assert torch.allclose(batch["albedo"].mean((1, 2, 3)), torch.full((3,), 0.5), atol=1e-5)
+    assert torch.allclose(batch["albedo"].mean((1, 2, 3)), torch.full((3,), 0.5), atol=0.01)
     assert torch.allclose(batch["normal"].norm(dim=1), torch.ones(3, 16, 16), atol=1e-5)
     assert (batch["log_roughness"] >= np.log(0.02) - 1e-6).all()
     assert (batch["log_roughness"] <= 1e-6).all()
-    assert net.training  # the mode is restored
+    assert (batch["log_specular"] >= -3.0).all() and (batch["log_specular"] <= -1.0).all()
+
+    # The labels are what the network predicts with batch statistics, renormalized; the image
+    # is their render.
+    net.train(True)
+    with torch.no_grad():
+        trained_mode = net(photos)
+    scale = 2 * trained_mode["albedo"].mean((1, 2, 3))
+    expected = (trained_mode["log_specular"] - torch.log(scale)[:, None]).clamp(-3.0, -1.0)
+    assert torch.allclose(batch["log_specular"], expected, atol=1e-5)
+    image = expose(render(batch["albedo"], batch["normal"], torch.exp(batch["log_specular"]),
+                          torch.exp(batch["log_roughness"][:, 0]), probes, lightings[0],
+                          torch.as_tensor(lightings[1], dtype=torch.float32),
+                          torch.as_tensor(lightings[2], dtype=torch.float32)))
+    assert torch.allclose(batch["image"], image, atol=1e-5)
 
 
 def test_training_and_estimation_do_not_import_mitsuba():

@@ -8,6 +8,7 @@ generators seeded by (seed, step), so they need no state. Files are written unde
 name and renamed: a killed run loses at most the steps since its last checkpoint.
 """
 
+import io
 import re
 from pathlib import Path
 
@@ -27,7 +28,9 @@ def save_checkpoint(folder, state):
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     with atomic_path(folder / f"step-{state['step']:09d}.pt") as tmp:
-        torch.save({"format": FORMAT, **state}, tmp)
+        buffer = io.BytesIO()  # serialized in memory: a failed write (disk full) is then an
+        torch.save({"format": FORMAT, **state}, buffer)  # OSError that says why
+        tmp.write_bytes(buffer.getbuffer())
     for old in checkpoint_files(folder)[:-KEEP]:
         old.unlink()
 

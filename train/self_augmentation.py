@@ -1,11 +1,12 @@
 """Self-augmentation (the paper's "Training by Self-Augmentation"): a labeled pair made from an
 unlabeled photo by the network itself and the exact renderer.
 
-The network, in evaluation mode, predicts provisional parameters for the photos; they are
-clamped to the valid range and rendered by the torch renderer under a random probe, rotation
-and view, auto-exposed and clamped like the dataset's images. The render and the provisional
-parameters, renormalized to a mean relative albedo of 0.5 (the exposure makes the render
-independent of that scale), form a labeled minibatch. Unlike the photo, the render is exactly
+The network predicts provisional parameters for the photos (batch norm on the minibatch's own
+statistics, running statistics untouched); they are renormalized to a mean relative albedo of
+0.5 (the exposure makes the render independent of that scale), clamped to the valid range of
+the labels, and rendered by the torch renderer under a random probe, rotation and view,
+auto-exposed and clamped like the dataset's images. The render and those parameters form a
+labeled minibatch. Unlike the photo, the render is exactly
 consistent with those parameters, so training on it pulls the network toward the renderer's
 inverse.
 """
@@ -30,24 +31,38 @@ def random_lightings(rng, count, probe_choices, max_view_angle=0.0):
     return probe_index, rotation_deg, view
 
 
+def provisional_parameters(net, photos):
+    """The network's predictions for ``photos``, with batch norm normalizing by the minibatch's
+    own statistics, as in training; the running statistics are left as they were (the provisional
+    pass is not a training step). Predicting in evaluation mode instead, with running statistics
+    that the self-augmented renders themselves keep moving, biased the predictions and let the
+    specular albedo drift (docs/training.md)."""
+    running = [buffer.clone() for buffer in net.buffers()]
+    training = net.training
+    net.train()
+    with torch.no_grad():
+        prediction = net(photos)
+        for buffer, saved in zip(net.buffers(), running):
+            buffer.copy_(saved)
+    net.train(training)
+    return prediction
+
+
 def self_augmented_batch(net, photos, probes, lightings, log_specular_range):
     """A labeled minibatch (image, albedo, normal, log_specular, log_roughness) from ``photos``
     (B, 3, S, S), rendered under ``lightings`` (random_lightings of B)."""
-    training = net.training
-    net.eval()
-    with torch.no_grad():
-        provisional = clamp_to_valid(net(photos), log_specular_range)
-    net.train(training)
+    provisional = provisional_parameters(net, photos)
+    scale = 2.0 * provisional["albedo"].mean((1, 2, 3))  # (B,) relative albedo back to mean 0.5
+    labels = clamp_to_valid({
+        "albedo": provisional["albedo"] / scale[:, None, None, None],
+        "normal": provisional["normal"],
+        "log_specular": provisional["log_specular"] - torch.log(scale)[:, None],
+        "log_roughness": provisional["log_roughness"]}, log_specular_range)
 
     dtype = photos.dtype
     probe_index = torch.as_tensor(lightings[0])
     rotation = torch.as_tensor(lightings[1], dtype=dtype)
     view = torch.as_tensor(lightings[2], dtype=dtype)
-    albedo = provisional["albedo"]
-    hdr = render(albedo, provisional["normal"], torch.exp(provisional["log_specular"]),
-                 torch.exp(provisional["log_roughness"]), probes, probe_index, rotation, view)
-    scale = 2.0 * albedo.mean((1, 2, 3))  # (B,) relative albedo back to mean 0.5
-    return {"image": expose(hdr).to(dtype), "albedo": albedo / scale[:, None, None, None],
-            "normal": provisional["normal"],
-            "log_specular": provisional["log_specular"] - torch.log(scale)[:, None],
-            "log_roughness": provisional["log_roughness"]}
+    hdr = render(labels["albedo"], labels["normal"], torch.exp(labels["log_specular"]),
+                 torch.exp(labels["log_roughness"][:, 0]), probes, probe_index, rotation, view)
+    return {"image": expose(hdr).to(dtype), **labels}

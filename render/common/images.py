@@ -101,7 +101,10 @@ def write_exr(path, pixels):
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     with atomic_path(path) as tmp:
         with OpenEXR.File(header, channels) as exr:
-            exr.write(str(tmp))
+            try:
+                exr.write(str(tmp))
+            except RuntimeError as error:  # how OpenEXR reports a failed write (disk full)
+                raise OSError(_first_line(error)) from None
 
 
 def write_png(path, linear_rgb):

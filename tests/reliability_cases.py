@@ -1,9 +1,11 @@
-"""The bad-input matrix: for every command line, each argument's bad forms and the message the
-user must get. ``tests/test_bad_input_matrix.py`` runs every case; ``docs/reliability.md`` is
-generated from this table (``python -m tests.bad_input_cases`` rewrites it, and a test checks
-that it is current), so the two cannot drift.
+"""The reliability matrices as data: the fault matrix (commands killed, or starved of disk;
+run by ``tests/test_fault_matrix.py``) and the bad-input matrix (for every command line, each
+argument's bad forms and the message the user must get; run by
+``tests/test_bad_input_matrix.py``). ``docs/reliability.md`` is generated from them
+(``python -m tests.reliability_cases`` rewrites it, and a test checks that it is current), so
+the tests and the document cannot drift.
 
-A case is (command, argument, bad form, argv builder, expected message fragment). The argv
+A bad-input case is (command, argument, bad form, argv builder, expected message fragment). The argv
 builder takes the ``BadInputs`` of one temporary folder and returns the command's arguments;
 every path a case makes bad is one of its attributes, and the test checks that the message
 names it.
@@ -305,26 +307,81 @@ CASES = [
 path the message must name or None, expected message fragment)."""
 
 
+FAULT_COMMANDS = {
+    "render-dataset": ("render.cli.render_dataset", lambda out: [
+        "--probes", str(BUNDLED_PROBES), "--svbrdfs", str(BUNDLED_MATERIALS), "--out", str(out),
+        "--resolution", "16", "--render-size", "32", "--rotations", "2", "--crops", "2",
+        "--spp", "4", "--test-materials", "0.34", "--test-probes", "0.34"]),
+    "sa-train": ("train.cli.sa_train", lambda out: [
+        "--labeled-maps", str(BUNDLED_MATERIALS), "--probes", str(BUNDLED_PROBES), "--out",
+        str(out), "--network", "small", "--input-size", "32", "--levels", "3", "--render-size",
+        "48", "--epoch-samples", "32", "--batch-size", "8", "--labeled-epochs", "2",
+        "--self-augmented-epochs", "1", "--unlabeled", str(REPO / "scenes" / "photos"),
+        "--checkpoint-every", "3", "--log-every", "2"]),
+    "sa-validate": ("train.cli.sa_validate", lambda out: [
+        "--probes", str(BUNDLED_PROBES), "--out", str(out), "--config", "toy", "--patterns",
+        "2x2x2"]),
+}
+"""The fault matrix's small runs: (module, argv builder (output folder))."""
+KILLS = 5
+"""SIGKILLs per command, each at a seeded random moment, each followed by the same command."""
+FILE_SIZE_LIMITS = {"render-dataset": 20_000, "sa-train": 200_000, "sa-validate": 5_000}
+"""Bytes a file may grow to in the full-disk cases (RLIMIT_FSIZE): less than some output."""
+FAULTS = [
+    *[(command, f"kill -9 at {KILLS} seeded random moments, then the same command",
+       "the same files (dataset), weights and history (training) or results (validation) as "
+       "an uninterrupted run; no partial file under a final name") for command in FAULT_COMMANDS],
+    *[(command, f"disk full (files limited to {limit:,} bytes)",
+       "`Error: PATH: cannot write (... File too large)`, no partial file; the next run ends "
+       "as an uninterrupted one") for command, limit in FILE_SIZE_LIMITS.items()],
+    ("sa-train", "newest checkpoint truncated", "`Error: CHECKPOINT: cannot read checkpoint "
+     "safely ...`; once it is removed, the next run ends as an uninterrupted one"),
+    ("all", "read-only output folder", "not tested: CI runs as root, which writes into "
+     "read-only folders"),
+]
+"""(command, fault, what must happen), as docs/reliability.md lists them."""
+
+
 def markdown():
     """docs/reliability.md's text."""
     lines = [
-        "# Reliability: bad input",
+        "# Reliability: resume, faults and bad input",
         "",
-        "Generated from `tests/bad_input_cases.py` by `python -m tests.bad_input_cases`; "
-        "`tests/test_bad_input_matrix.py` runs every case and checks that this file is "
-        "current.",
+        "Generated from `tests/reliability_cases.py` by `python -m tests.reliability_cases`; "
+        "`tests/test_fault_matrix.py` and `tests/test_bad_input_matrix.py` run every case, and "
+        "a test checks that this file is current.",
+        "",
+        "## Resume",
+        "",
+        "Every command that resumes (`render-dataset`, `sa-train`, `sa-validate`) continues an "
+        "output folder only with the options it was started with (`render/common/resume.py`), "
+        "except those that do not change the result: the output path (a moved folder "
+        "resumes), the device, worker counts, logging and checkpoint intervals. Any other "
+        "difference is refused, naming the differing options. `make-materials` skips the sets "
+        "already written and refuses a set made with other options.",
+        "",
+        "## Faults",
+        "",
+        "Slow tests: `make test-slow`, which CI runs after `make test`.",
+        "",
+        "| command | fault | what must happen |",
+        "| --- | --- | --- |",
+        *[f"| `{command}` | {fault} | {outcome} |" for command, fault, outcome in FAULTS],
+        "",
+        "## Bad input",
         "",
         "Every case must end with a non-zero exit status and one line `Error: ...` that "
         "names the bad path (where there is one) and contains the message below; no "
-        "traceback; nothing written into the output folder, and a file already there left as it "
-        "was.",
+        "traceback; nothing written into the output folder, and a file already there left as "
+        "it was.",
         "",
+        "| command | cases |",
+        "| --- | --- |",
     ]
     commands = list(dict.fromkeys(case[0] for case in CASES))
-    lines += ["| command | cases |", "| --- | --- |"]
     lines += [f"| `{c}` | {sum(case[0] == c for case in CASES)} |" for c in commands]
     for command in commands:
-        lines += ["", f"## `{command}`", "", "| argument | bad form | message contains |",
+        lines += ["", f"### `{command}`", "", "| argument | bad form | message contains |",
                   "| --- | --- | --- |"]
         lines += [f"| `{argument}` | {form} | `{expected}` |"
                   for name, argument, form, _, _, expected in CASES if name == command]
