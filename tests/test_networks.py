@@ -3,7 +3,8 @@
 import pytest
 import torch
 
-from train.networks import SMALL_CPU_CONFIG, MapNet, NetworkConfig, SVBRDFNet, decode_normal
+from train.networks import (SMALL_CPU_CONFIG, HomogeneousNet, MapNet, NetworkConfig, SVBRDFNet,
+                            decode_normal)
 from train.optimization import OptimizerConfig, inverse_decay, make_optimizer
 
 TINY = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32)
@@ -68,8 +69,16 @@ def test_separate_networks_per_output_type():
 def test_configuration_checks():
     with pytest.raises(ValueError, match="divisible"):
         NetworkConfig(input_size=100, levels=3)
-    with pytest.raises(ValueError, match="expected photos"):
+    size = TINY.input_size
+    with pytest.raises(ValueError, match=rf"expected images of shape \(B, 3, {size}, {size}\), "
+                                         rf"got \(1, 3, 64, 64\)"):
         SVBRDFNet(TINY)(torch.rand(1, 3, 64, 64))
+    with pytest.raises(ValueError, match=r"got \(1, 32, 32, 3\)"):  # channel-last
+        SVBRDFNet(TINY)(torch.rand(1, size, size, 3))
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        SVBRDFNet(TINY)(torch.full((1, 3, size, size), float("nan")))
+    with pytest.raises(ValueError, match=rf"expected images of shape \(B, 1, {size}, {size}\)"):
+        HomogeneousNet(TINY, in_channels=1, outputs=2)(torch.rand(2, 3, size, size))
     assert NetworkConfig().channels() == [32, 64, 128, 256, 256]
     small = sum(p.numel() for p in SVBRDFNet(SMALL_CPU_CONFIG).parameters())
     assert small < 2_000_000  # trains on a CPU in minutes

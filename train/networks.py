@@ -93,12 +93,14 @@ class HomogeneousNet(nn.Module):
 
     def __init__(self, config, in_channels=3, outputs=4):
         super().__init__()
+        self.config, self.in_channels = config, in_channels
         self.analysis = Analysis(config, in_channels)
         bottleneck = config.channels()[-1] * (config.input_size // 2 ** config.levels) ** 2
         self.synthesis = nn.Sequential(nn.Flatten(), nn.Linear(bottleneck, config.hidden),
                                        nn.ReLU(inplace=True), nn.Linear(config.hidden, outputs))
 
     def forward(self, image):
+        check_images(image, self.in_channels, self.config.input_size)
         _, bottleneck = self.analysis(image)
         return self.synthesis(bottleneck)
 
@@ -140,13 +142,20 @@ class SVBRDFNet(nn.Module):
         """``image`` (B, 3, S, S) -> dict of albedo (B, 3, S, S) relative diffuse albedo
         (positive, mean about 0.5); normal (B, 3, S, S) unit tangent-space normals; log_specular (B, 3);
         log_roughness (B, 1)."""
-        if image.shape[1:] != (3, self.config.input_size, self.config.input_size):
-            raise ValueError(f"expected photos of shape (B, 3, {self.config.input_size}, "
-                             f"{self.config.input_size}), got {tuple(image.shape)}")
+        check_images(image, 3, self.config.input_size)
         homogeneous = self.homogeneous(image)  # (B, 4)
         log_specular, log_roughness = homogeneous[:, :3], homogeneous[:, 3:]
         return {"albedo": self.albedo(image), "normal": decode_normal(self.normal(image)),
                 "log_specular": log_specular, "log_roughness": log_roughness}
+
+
+def check_images(image, channels, size):
+    """Raise ValueError unless ``image`` is (B, channels, size, size) of finite values."""
+    if image.ndim != 4 or image.shape[1:] != (channels, size, size):
+        raise ValueError(f"expected images of shape (B, {channels}, {size}, {size}), got "
+                         f"{tuple(image.shape)}")
+    if not torch.isfinite(image).all():
+        raise ValueError("images hold NaN or infinite values")
 
 
 def decode_normal(encoded):
