@@ -86,6 +86,7 @@ def test_same_seed_same_dataset_whatever_the_workers(reference_dataset, tmp_path
     assert dataset_files(out) == dataset_files(tmp_path / "ds")
 
 
+@pytest.mark.slow  # end to end, several processes: make test-slow
 def test_a_local_ray_cluster_renders_byte_identical_files(reference_dataset, tmp_path):
     """render-dataset --ray on a Ray instance of 2 worker CPUs, chunks of 3 tasks, against the
     one-process reference: same index, same bytes in every sample and task marker."""

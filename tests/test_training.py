@@ -236,6 +236,7 @@ def torchrun(dataset, out, processes, *options):
     return subprocess.run(command, cwd=REPO, capture_output=True, text=True)
 
 
+@pytest.mark.slow  # end to end under torchrun: make test-slow
 def test_two_processes_follow_the_loss_curve_of_one_and_resume_in_one(dataset, tmp_path):
     """Data-parallel training on 2 processes (2 shards of 4 per global minibatch of 8) against
     one process: every step's loss within 1%. The gap comes from sums taken in another order,

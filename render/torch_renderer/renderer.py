@@ -4,8 +4,8 @@ It renders what ``render/mitsuba_reference/scene.py`` renders with Mitsuba, in t
 conventions (docs/conventions.md): texture-space images, (B, 3, H, W) linear RGB, row 0 at the
 top; normals in tangent space (x right, y up, z out); probes white-balanced to a plane
 irradiance of pi, rotated counter-clockwise about +z; light only from above the sample plane.
-It needs torch alone (no Mitsuba), runs on any device and dtype, and has no per-sample Python
-loop.
+It needs torch alone (no Mitsuba) and runs on any device and dtype; its one per-sample Python
+loop computes the broad-lobe tables, each sample's with matrix products.
 
 Method. With an orthographic view and distant light, a texel's radiance depends on the texel
 only through its albedo and its normal n:
@@ -168,14 +168,18 @@ def _rotate_z(vectors, rotation_deg):
 
 def ward_kernel(cos_h, cos_i, cos_o, alpha):
     """Ward lobe times cosine, f_s cos(theta_i) / rho_s, from the cosines of the half vector,
-    the light and the view with the normal; zero where any of them is behind the normal."""
-    valid = (cos_i > 0) & (cos_o > 0) & (cos_h > 0)
-    one = torch.ones_like(cos_h)
-    cos_h2 = torch.where(valid, cos_h * cos_h, one)
-    ratio = torch.where(valid, cos_i / torch.where(valid, cos_o, one), one)
+    the light and the view with the normal; zero where the light or the view is behind the
+    normal, and negligible (a relative weight of e^-80) where the half vector is.
+
+    Written for few passes over large (entries x probe blocks) arrays: a half vector at or
+    behind the normal's horizon is floored at cos_h = 1e-3, and the exponent at -80 (a relative
+    weight below 1e-34, where exp would otherwise take the slow path of results near or below
+    the smallest normal float, about 20x slower); the light's cosine is floored at zero."""
     a2 = alpha * alpha
-    lobe = torch.exp((1 - 1 / cos_h2) / a2) / (4 * math.pi * a2)
-    return lobe * torch.sqrt(ratio) * valid
+    inverse_cos_h2 = cos_h.clamp(min=1e-3).pow(-2)
+    lobe = torch.exp(((1 - inverse_cos_h2) / a2).clamp(min=-80)) / (4 * math.pi * a2)
+    view_factor = torch.where(cos_o > 0, cos_o, torch.inf).rsqrt()  # zero behind the normal
+    return lobe * cos_i.clamp(min=0).sqrt() * view_factor
 
 
 class _Layout:
@@ -334,24 +338,27 @@ def _broad_specular_tables(probes, probe_index, rotation, view, roughness, layou
                            dtype):
     """S at table entries (E, 3) of broad-lobe samples: the probe's blocks weighted by the
     exact kernel, a block being small next to a broad lobe. Yields (entries, values (E', 3))
-    per block size."""
-    sample_block = layout.block[entries[:, 0]]
-    for block in sample_block.unique().tolist():
-        energy, directions = probes.blocks(block)
-        rows = entries[sample_block == block]
+    per sample and chunk of entries.
+
+    A block's light direction and half vector depend on the sample only (its probe, rotation
+    and view), so the cosines of all of a sample's entries with all its blocks are two matrix
+    products."""
+    for sample in entries[:, 0].unique().tolist():
+        energy, directions = probes.blocks(int(layout.block[sample]))
+        probe = probe_index[sample]
+        light = torch.nn.functional.normalize(
+            _rotate_z(directions[probe, None].to(dtype), rotation[sample, None])[0], dim=-1)
+        v = view[sample]
+        half = torch.nn.functional.normalize(light + v, dim=-1)  # (D, 3)
+        rows = entries[entries[:, 0] == sample]
         chunk = max(1, ENTRY_CHUNK_LANES // directions.shape[1])
         for start in range(0, len(rows), chunk):
             part = rows[start:start + chunk]
             b, y, x = part.unbind(1)
-            normal = _entry_normals(layout, b, y, x, dtype)[:, :, None]
-            light = torch.nn.functional.normalize(
-                _rotate_z(directions[probe_index[b]].to(dtype), rotation[b]), dim=-1)
-            v = view[b]
-            h = torch.nn.functional.normalize(light + v[:, None, :], dim=-1)
-            cos_o = (normal[:, :, 0] * v).sum(-1, keepdim=True)
-            weight = ward_kernel((h @ normal).squeeze(-1), (light @ normal).squeeze(-1), cos_o,
-                                 roughness[b][:, None])
-            yield part, (weight[:, None, :] @ energy[probe_index[b]].to(dtype)).squeeze(1)
+            normal = _entry_normals(layout, b, y, x, dtype)  # (E', 3)
+            weight = ward_kernel(normal @ half.T, normal @ light.T, (normal @ v)[:, None],
+                                 roughness[sample])
+            yield part, weight @ energy[probe].to(dtype)
 
 
 def _touched_entries(coordinates, layout):
