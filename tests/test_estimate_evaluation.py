@@ -19,8 +19,10 @@ from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO
 from train.checkpoints import FORMAT as CHECKPOINT_FORMAT
 from train.cli.sa_estimate import main as sa_estimate
 from train.cli.sa_evaluate import main as sa_evaluate
-from train.estimate_evaluation import (NAIVE_ROUGHNESS, NAIVE_SPECULAR, naive_estimate,
-                                       sample_errors, summary)
+from render.common.exposure import expose
+from train.estimate_evaluation import (ERRORS, NAIVE_ROUGHNESS, NAIVE_SPECULAR, SWAPS,
+                                       naive_estimate, relit_rmse, relit_under, sample_errors,
+                                       summary)
 from train.map_samples import MapSampler
 from train.model_files import SHIPPED, load_network, save_model, shipped_model_path
 from train.networks import NetworkConfig, SVBRDFNet
@@ -67,18 +69,40 @@ def test_the_naive_baseline_is_the_scaled_photo_flat_and_fixed_specular():
     assert torch.allclose(naive["log_specular"], torch.full((1, 3), math.log(NAIVE_SPECULAR)))
     assert float(naive["log_roughness"]) == pytest.approx(math.log(NAIVE_ROUGHNESS))
     # scored against itself as the truth, the baseline's errors vanish; the ratio divides means
-    records = [{"model": sample_errors(naive, naive, torch.zeros(1), torch.zeros(1)),
+    swapped = {swap: 0.01 for swap in SWAPS}
+    records = [{"model": sample_errors(naive, naive, torch.zeros(1), torch.zeros(1))
+                | {"relit_with_true": swapped},
                 "naive": {"albedo_rmse": 0.2, "normal_angle_deg": 4.0,
                           "log_specular_error": 1.0, "log_roughness_error": 0.5,
-                          "relit_rmse": 0.05}}]
+                          "relit_rmse": 0.05, "relit_with_true": swapped}}]
     mean = summary(records)
     assert mean["ratio"]["relit_rmse"] == pytest.approx(0.0, abs=1e-6)
     assert mean["naive"]["normal_angle_deg"] == 4.0
+    assert mean["naive"]["relit_with_true"] == swapped
 
 
 @pytest.fixture(scope="module")
 def bank():
     return ProbeBank([load_probe(path).radiance for path in find_probes(BUNDLED_PROBES)])
+
+
+def test_swapping_the_truth_into_the_wrong_part_removes_the_relit_error(bank):
+    truth = parameters(albedo=0.4, normal=(0.1, 0.2, 1.0), specular=0.05, roughness=0.1)
+    wrong_specular = truth | {"log_specular": torch.full((1, 3), math.log(0.5))}
+    probe_index, rotation = torch.tensor([0, 1]), torch.tensor([30.0, 200.0])
+    truth_hdr = relit_under(truth, bank, probe_index, rotation)
+    relit_truth = expose(truth_hdr)
+
+    def with_true(names):
+        return relit_rmse(wrong_specular | {name: truth[name] for name in names}, bank,
+                          probe_index, rotation, truth_hdr, relit_truth)
+
+    unswapped = relit_rmse(wrong_specular, bank, probe_index, rotation, truth_hdr, relit_truth)
+    assert unswapped > 0.01  # a specular albedo 10x too bright shows when relit
+    assert with_true(SWAPS["specular"]) == pytest.approx(0.0, abs=1e-6)
+    assert with_true(SWAPS["specular+roughness"]) == pytest.approx(0.0, abs=1e-6)
+    for right_already in ("albedo", "normals", "roughness"):
+        assert with_true(SWAPS[right_already]) == pytest.approx(unswapped, rel=1e-6)
 
 
 def test_labeled_maps_give_valid_reproducible_samples_and_shards(bank):
@@ -107,7 +131,10 @@ def test_sa_evaluate_reports_model_naive_and_ratio(tmp_path):
     report = json.loads(result.stdout)
     assert report["samples"] == 2 and "per_sample" not in report
     for kind in ("model", "naive", "ratio"):
-        assert all(np.isfinite(v) for v in report["mean"][kind].values()), kind
+        assert all(np.isfinite(report["mean"][kind][name]) for name in ERRORS), kind
+    for kind in ("model", "naive"):
+        swapped = report["mean"][kind]["relit_with_true"]
+        assert set(swapped) == set(SWAPS) and all(np.isfinite(v) for v in swapped.values())
     full = json.loads((tmp_path / "eval" / "results.json").read_text())
     assert len(full["per_sample"]) == 2
     assert all(len(r["relight_probes"]) == 2 and r["photo_probe"] not in r["relight_probes"]

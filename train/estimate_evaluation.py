@@ -24,6 +24,11 @@ The naive baseline gets the same errors: albedo = the linearized photo scaled to
 normals, relative specular albedo 0.08 on every channel, Ward alpha 0.25. The means, and each
 mean of the model divided by the baseline's (``ratio``, below 1: the model is better), close
 the report.
+
+Where the relit error comes from (``relit_with_true``): the relit RMSE of the model's and of the
+baseline's estimate with one part of it replaced by the truth (SWAPS: the albedo, the normals,
+the specular albedo, the roughness, or specular albedo and roughness together). A part whose
+swap lowers the relit error much is the part to get right.
 """
 
 import json
@@ -57,6 +62,10 @@ NAIVE_SPECULAR = 0.08
 NAIVE_ROUGHNESS = 0.25
 ERRORS = ("albedo_rmse", "normal_angle_deg", "log_specular_error", "log_roughness_error",
           "relit_rmse")
+SWAPS = {"albedo": ("albedo",), "normals": ("normal",), "specular": ("log_specular",),
+         "roughness": ("log_roughness",),
+         "specular+roughness": ("log_specular", "log_roughness")}
+"""Parts of an estimate replaced by the truth for ``relit_with_true``: name -> parameters."""
 FIGURE_ROWS = 6
 SWATCH_LIGHT = np.array([1.0, 1.0, 2.0]) / math.sqrt(6.0)
 """Direction of the directional light of the specular swatches (toward the light)."""
@@ -171,6 +180,13 @@ def relit_under(parameters, bank, probe_index, rotation_deg):
                   bank, probe_index, rotation_deg)
 
 
+def relit_rmse(parameters, bank, probe_index, rotation_deg, truth_hdr, relit_truth):
+    """Relit RMSE of ``parameters`` against the truth's exposed renders ``relit_truth``
+    (exposed with the truth's HDR renders ``truth_hdr``)."""
+    relit = expose(relit_under(parameters, bank, probe_index, rotation_deg), reference=truth_hdr)
+    return float(torch.sqrt(torch.mean((relit - relit_truth) ** 2)))
+
+
 def sample_errors(estimate_, truth, relit_estimate, relit_truth):
     """The errors of the module docstring, as floats."""
     cosine = (estimate_["normal"] * truth["normal"]).sum(1).clamp(-1.0, 1.0)
@@ -232,6 +248,10 @@ def run(cfg, net):
                 relit = expose(relit_under(parameters, bank, probe_index, rotation),
                                reference=truth_hdr)
                 record[kind] = sample_errors(parameters, truth, relit, relit_truth)
+                record[kind]["relit_with_true"] = {
+                    swap: relit_rmse(parameters | {n: truth[n] for n in names}, bank,
+                                     probe_index, rotation, truth_hdr, relit_truth)
+                    for swap, names in SWAPS.items()}
                 if kind == "model" and i in shown:
                     figure_rows.append(figure_row(photo, parameters, truth, relit[0],
                                                   relit_truth[0]))
@@ -254,6 +274,10 @@ def summary(records):
             for kind in ("model", "naive")}
     mean["ratio"] = {name: mean["model"][name] / mean["naive"][name]
                      if mean["naive"][name] > 0 else None for name in ERRORS}
+    for kind in ("model", "naive"):
+        mean[kind]["relit_with_true"] = {
+            swap: float(np.mean([r[kind]["relit_with_true"][swap] for r in records]))
+            for swap in SWAPS}
     return mean
 
 
