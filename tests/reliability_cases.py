@@ -268,6 +268,8 @@ CASES = [
          "not an sa-svbrdf checkpoint"),
         ("--init-from", "truncated safetensors", lambda i, o: sa_train(i, o) + [
             "--init-from", str(i.truncated_model)], "truncated_model", "cannot read safetensors"),
+        ("--train-networks", "an unknown network", lambda i, o: sa_train(i, o) + [
+            "--train-networks", "homogeneous,specular"], None, "name some of homogeneous"),
         *_out_cases(sa_train)]],
     *[("sa-estimate", *case) for case in [
         ("PHOTO", "missing file", lambda i, o: [str(i.missing), "--out", str(o)], "missing",

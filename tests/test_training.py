@@ -313,6 +313,21 @@ def test_training_on_labeled_maps_rendered_on_the_fly_and_fine_tuning(tmp_path):
     assert other.exit_code != 0 and "differs from this run's" in other.output
 
 
+def test_training_one_network_alone_leaves_the_others_as_they_were(trained_run, dataset,
+                                                                     tmp_path):
+    result = train(dataset, tmp_path / "run", "--labeled-epochs", "1",
+                   "--self-augmented-epochs", "0", "--init-from", str(trained_run),
+                   "--train-networks", "homogeneous", "--learning-rate", "0.01")
+    assert result.exit_code == 0, result.output
+    before = load_checkpoint(checkpoint_files(trained_run / "checkpoints")[-1])["model"]
+    after = load_checkpoint(checkpoint_files(tmp_path / "run" / "checkpoints")[-1])["model"]
+    changed = {name.split(".")[0] for name in before
+               if not torch.equal(before[name], after[name])}
+    assert changed == {"homogeneous"}  # weights and batch norm statistics of the map networks
+    wrong = train(dataset, tmp_path / "wrong", "--train-networks", "homogeneous,specular")
+    assert wrong.exit_code != 0 and "name some of homogeneous, albedo, normal" in wrong.output
+
+
 def test_sa_evaluate_takes_the_test_split_of_datasets_in_order(dataset, tmp_path):
     model = tmp_path / "tiny.safetensors"
     save_model(SVBRDFNet(NetworkConfig(input_size=32, width=4, max_width=16, levels=3,

@@ -18,8 +18,9 @@ LABELS = ("albedo", "normal", "log_specular", "log_roughness")
 
 
 def losses(prediction, target):
-    """Mean squared error per label, and their sum under "total"."""
-    terms = {name: torch.mean((prediction[name] - target[name]) ** 2) for name in LABELS}
+    """Mean squared error per label that ``prediction`` holds, and their sum under "total"."""
+    terms = {name: torch.mean((prediction[name] - target[name]) ** 2) for name in LABELS
+             if name in prediction}
     terms["total"] = sum(terms.values())
     return terms
 

@@ -128,6 +128,11 @@ class MapNet(nn.Module):
         return self.activation(self.output(x))
 
 
+PARTS = {"homogeneous": ("log_specular", "log_roughness"), "albedo": ("albedo",),
+         "normal": ("normal",)}
+"""The three networks of SVBRDFNet (its attribute names) and the labels each predicts."""
+
+
 class SVBRDFNet(nn.Module):
     """The union of the three networks; ``forward`` returns the label quantities."""
 
@@ -138,15 +143,22 @@ class SVBRDFNet(nn.Module):
         self.albedo = MapNet(config, functional.softplus)
         self.normal = MapNet(config, torch.sigmoid)
 
-    def forward(self, image):
+    def forward(self, image, parts=tuple(PARTS)):
         """``image`` (B, 3, S, S) -> dict of albedo (B, 3, S, S) relative diffuse albedo
         (positive, mean about 0.5); normal (B, 3, S, S) unit tangent-space normals; log_specular (B, 3);
-        log_roughness (B, 1)."""
+        log_roughness (B, 1). Only the networks named in ``parts`` (keys of PARTS) run, and
+        only their labels are returned (training one network alone)."""
         check_images(image, 3, self.config.input_size)
-        homogeneous = self.homogeneous(image)  # (B, 4)
-        log_specular, log_roughness = homogeneous[:, :3], homogeneous[:, 3:]
-        return {"albedo": self.albedo(image), "normal": decode_normal(self.normal(image)),
-                "log_specular": log_specular, "log_roughness": log_roughness}
+        outputs = {}
+        if "homogeneous" in parts:
+            homogeneous = self.homogeneous(image)  # (B, 4)
+            outputs["log_specular"], outputs["log_roughness"] = (homogeneous[:, :3],
+                                                                 homogeneous[:, 3:])
+        if "albedo" in parts:
+            outputs["albedo"] = self.albedo(image)
+        if "normal" in parts:
+            outputs["normal"] = decode_normal(self.normal(image))
+        return outputs
 
 
 def check_images(image, channels, size):

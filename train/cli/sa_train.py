@@ -8,7 +8,7 @@ import os
 import click
 
 from render.common.errors import InputError
-from train.networks import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig
+from train.networks import COMPACT_CONFIG, PARTS, SMALL_CPU_CONFIG, NetworkConfig
 from train.optimization import OptimizerConfig
 from train.trainer import TrainConfig, run
 
@@ -27,6 +27,9 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
               help="With --labeled-maps: labeled samples per epoch.")
 @click.option("--init-from", type=click.Path(), default=None,
               help="Start from this model's weights (fine-tuning); same network configuration.")
+@click.option("--train-networks", default=",".join(PARTS), show_default=True,
+              help="Comma-separated networks to train; the others keep their --init-from "
+                   "weights.")
 @click.option("--out", required=True, type=click.Path(), help="Run folder.")
 @click.option("--probes", required=True, type=click.Path(),
               help="HDR probes for self-augmentation renders and relit evaluation.")
@@ -50,7 +53,8 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
 @click.option("--checkpoint-every", default=500, show_default=True)
 @click.option("--log-every", default=50, show_default=True)
 @click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
-def main(network_name, input_size, width, levels, learning_rate, lr_gamma, **options):
+def main(network_name, input_size, width, levels, learning_rate, lr_gamma, train_networks,
+         **options):
     """Train SVBRDF-net, with self-augmentation when unlabeled photos are given."""
     main_process = os.environ.get("RANK", "0") == "0"  # under torchrun, only rank 0 logs
     logging.basicConfig(level=logging.INFO if main_process else logging.WARNING,
@@ -61,6 +65,8 @@ def main(network_name, input_size, width, levels, learning_rate, lr_gamma, **opt
                                       **{k: v for k, v in overrides.items() if v is not None})
         cfg = TrainConfig(network=network, optimizer=OptimizerConfig(learning_rate=learning_rate,
                                                                     lr_gamma=lr_gamma),
+                          train_networks=tuple(name.strip() for name in
+                                               train_networks.split(",") if name.strip()),
                           **options)
         if main_process:
             click.echo(json.dumps(dataclasses.asdict(cfg), indent=2))
