@@ -20,6 +20,8 @@ from train.checkpoints import checkpoint_files, load_checkpoint
 from train.cli.sa_estimate import main as sa_estimate
 from train.cli.sa_evaluate import main as sa_evaluate
 from train.cli.sa_train import main as sa_train
+from train.losses import relit_loss
+from train.map_samples import MapSampler
 from train.model_files import save_model
 from train.networks import NetworkConfig, SVBRDFNet
 from train.schedule import LABELED, SELF_AUGMENTED, Schedule
@@ -317,7 +319,8 @@ def test_training_one_network_alone_leaves_the_others_as_they_were(trained_run, 
                                                                      tmp_path):
     result = train(dataset, tmp_path / "run", "--labeled-epochs", "1",
                    "--self-augmented-epochs", "0", "--init-from", str(trained_run),
-                   "--train-networks", "homogeneous", "--learning-rate", "0.01")
+                   "--train-networks", "homogeneous", "--learning-rate", "0.01",
+                   "--relit-loss-weight", "10", "--relit-loss-size", "16")
     assert result.exit_code == 0, result.output
     before = load_checkpoint(checkpoint_files(trained_run / "checkpoints")[-1])["model"]
     after = load_checkpoint(checkpoint_files(tmp_path / "run" / "checkpoints")[-1])["model"]
@@ -326,6 +329,25 @@ def test_training_one_network_alone_leaves_the_others_as_they_were(trained_run, 
     assert changed == {"homogeneous"}  # weights and batch norm statistics of the map networks
     wrong = train(dataset, tmp_path / "wrong", "--train-networks", "homogeneous,specular")
     assert wrong.exit_code != 0 and "name some of homogeneous, albedo, normal" in wrong.output
+
+
+def test_relit_loss_is_zero_for_the_truth_and_pulls_specular_and_roughness_toward_it():
+    probe_files = find_probes(BUNDLED_PROBES)
+    bank = ProbeBank([load_probe(path).radiance for path in probe_files])
+    truth = MapSampler(BUNDLED_MATERIALS, bank, [0, 1, 2], size=32, render_size=48).batch(
+        np.random.default_rng(3), 3)
+    probe_index, rotation = np.array([2, 0, 1]), np.array([10.0, 200.0, 300.0])
+    exact = relit_loss({"log_specular": truth["log_specular"],
+                        "log_roughness": truth["log_roughness"]}, truth, bank, probe_index,
+                       rotation, 16)
+    assert float(exact) == 0.0
+    for name, offset in (("log_specular", 0.5), ("log_specular", -0.5),
+                         ("log_roughness", 0.4), ("log_roughness", -0.4)):
+        guess = (truth[name] + offset).requires_grad_()
+        loss = relit_loss({name: guess}, truth, bank, probe_index, rotation, 16)
+        loss.backward()
+        assert loss.item() > 1e-5, name
+        assert float((guess.grad * offset).sum()) > 0, (name, offset)  # descent moves back
 
 
 def test_sa_evaluate_takes_the_test_split_of_datasets_in_order(dataset, tmp_path):

@@ -55,6 +55,7 @@ from render.common.probes import find_probes, load_probe
 from render.torch_renderer.renderer import ProbeBank, render, sphere_normals, ward_kernel
 from train.estimate import estimate
 from train.labeled_dataset import LabeledDataset
+from train.losses import maps_at_size
 from train.map_samples import MapSampler
 from train.photos import PHOTO_GAMMA, read_photo
 
@@ -160,16 +161,6 @@ def naive_estimate(photo):
             "log_roughness": torch.tensor([[math.log(NAIVE_ROUGHNESS)]])}
 
 
-def at_size(truth, size):
-    """The truth's maps box filtered (normals renormalized) to ``size`` x ``size``."""
-    if truth["albedo"].shape[-1] == size:
-        return truth
-    albedo = functional.interpolate(truth["albedo"], size=(size, size), mode="area")
-    normal = functional.normalize(functional.interpolate(truth["normal"], size=(size, size),
-                                                         mode="area"), dim=1)
-    return truth | {"albedo": albedo, "normal": normal}
-
-
 def relit_under(parameters, bank, probe_index, rotation_deg):
     """HDR torch renders (R, 3, S, S) of one parameter set under R probes and rotations."""
     count = len(probe_index)
@@ -234,7 +225,7 @@ def run(cfg, net):
         for i, (image, truth, own_probe, name) in enumerate(tqdm(samples, desc="sa-evaluate",
                                                                  unit="sample")):
             photo = read_photo(as_photo_file(image, photos, f"{i:05d}"), size)
-            truth = at_size({name: value.to(cfg.device) for name, value in truth.items()}, size)
+            truth = maps_at_size({name: value.to(cfg.device) for name, value in truth.items()}, size)
             probe_index, rotation = novel_lightings(np.random.default_rng([cfg.seed, 2, i]),
                                                     own_probe, probe_names, held_out,
                                                     cfg.relights)

@@ -10,6 +10,7 @@ gives each network exactly its own gradient).
 import math
 
 import torch
+from torch.nn import functional
 
 from render.common.exposure import expose
 from render.torch_renderer.renderer import render
@@ -38,6 +39,35 @@ def relit(parameters, probes, probe_index, rotation_deg):
                  torch.exp(parameters["log_roughness"]).clamp(0.02, 1.0), probes, probe_index,
                  rotation_deg)
     return expose(hdr)
+
+
+def maps_at_size(parameters, size):
+    """``parameters`` with its albedo and normal maps box filtered (normals renormalized) to
+    ``size`` x ``size``."""
+    if parameters["albedo"].shape[-1] == size:
+        return parameters
+    albedo = functional.interpolate(parameters["albedo"], size=(size, size), mode="area")
+    normal = functional.normalize(functional.interpolate(parameters["normal"], size=(size, size),
+                                                         mode="area"), dim=1)
+    return parameters | {"albedo": albedo, "normal": normal}
+
+
+def relit_loss(prediction, target, probes, probe_index, rotation_deg, size):
+    """How differently the prediction and the truth look under other lighting: the mean squared
+    difference of log(1 + x) of their renders under the given probes and rotations (each
+    sample its own), both exposed as the truth's render is exposed and not clamped (a too
+    bright estimate still gets a gradient; the log compresses highlights). Maps are box
+    filtered to ``size`` px first; a label ``prediction`` lacks (a network not trained) is
+    taken from ``target``. Of the evaluation's relit error this differs only in the log and the
+    missing clamp."""
+    truth = maps_at_size({name: target[name] for name in LABELS}, size)
+    estimate = maps_at_size({name: prediction.get(name, target[name]) for name in LABELS}, size)
+    renders = [render(p["albedo"], p["normal"], torch.exp(p["log_specular"]),
+                      torch.exp(p["log_roughness"][:, 0]).clamp(0.02, 1.0), probes, probe_index,
+                      rotation_deg) for p in (truth, estimate)]
+    truth_hdr = renders[0].detach()
+    exposed = [expose(hdr, reference=truth_hdr, clamp=False) for hdr in (truth_hdr, renders[1])]
+    return torch.mean((torch.log1p(exposed[1]) - torch.log1p(exposed[0])) ** 2)
 
 
 MAX_RELATIVE_ALBEDO = 4.0

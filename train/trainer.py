@@ -46,7 +46,7 @@ from train import distributed  # noqa: E402
 from train.checkpoints import checkpoint_files, load_checkpoint, save_checkpoint  # noqa: E402
 from train.evaluation import evaluate, stack_items  # noqa: E402
 from train.labeled_dataset import LabeledDataset  # noqa: E402
-from train.losses import losses  # noqa: E402
+from train.losses import losses, relit_loss  # noqa: E402
 from train.map_samples import MapSampler  # noqa: E402
 from train.model_files import load_network  # noqa: E402
 from train.networks import PARTS, NetworkConfig, SVBRDFNet  # noqa: E402
@@ -57,6 +57,9 @@ from train.unlabeled_data import UnlabeledImages  # noqa: E402
 from train.unlabeled_selection import select_matching  # noqa: E402
 
 log = logging.getLogger(__name__)
+RELIT_LOSS_STREAM = 1
+"""Third seed word of the random stream of step ``index``'s relit-loss lightings:
+(seed, index, RELIT_LOSS_STREAM)."""
 LABELED_COLORS_STREAM = 2 ** 32 - 1
 """Second seed word of the random stream of the labeled samples whose colors choose the
 unlabeled subset; step ``index`` uses (seed, index), and no run reaches this many steps."""
@@ -106,6 +109,13 @@ class TrainConfig:
     """Self-augmented minibatches before each labeled one in those epochs."""
     unlabeled_limit: int | None = None
     """Most unlabeled images in the color-matched subset."""
+    relit_loss_weight: float = 0.0
+    """Weight of the relit loss (train.losses.relit_loss) added to every step's loss: the
+    estimate and the truth rendered under a new random probe (of those labeled renders use)
+    and rotation, as the evaluation's relit error compares them. 0: the parameter losses
+    alone, as the paper trains."""
+    relit_loss_size: int = 64
+    """Side (px) the maps are box filtered to for the relit loss's renders."""
     max_view_angle: float = 0.0
     """Largest view tilt (degrees) of the self-augmentation renders."""
     seed: int = 0
@@ -278,13 +288,28 @@ class Run:
         self.model.train()
         for network in self.frozen:
             network.eval()  # frozen batch norm statistics
-        terms = losses(self.model(batch["image"], parts=self.cfg.train_networks), batch)
+        prediction = self.model(batch["image"], parts=self.cfg.train_networks)
+        terms = losses(prediction, batch)
+        if self.cfg.relit_loss_weight > 0:
+            terms["relit"] = self._relit_loss(index, prediction, batch)
+            terms["total"] = terms["total"] + self.cfg.relit_loss_weight * terms["relit"]
         self.optimizer.zero_grad(set_to_none=True)
         terms["total"].backward()
         self.optimizer.step()
         self.scheduler.step()
         self.step = index + 1
         return self.place.mean({name: value.detach().item() for name, value in terms.items()})
+
+
+    def _relit_loss(self, index, prediction, batch):
+        """The relit loss of step ``index``, under lightings drawn for the global minibatch
+        (this process takes its shard)."""
+        rng = np.random.default_rng([self.cfg.seed, index, RELIT_LOSS_STREAM])
+        probe_index, rotation_deg, _ = random_lightings(rng, self.cfg.batch_size,
+                                                        self.augmentation_probes)
+        shard = self.place.shard
+        return relit_loss(prediction, batch, self.probes, shard(probe_index),
+                          shard(rotation_deg), self.cfg.relit_loss_size)
 
 
 def run(cfg):

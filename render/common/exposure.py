@@ -32,12 +32,13 @@ def expose_numpy(hdr, key=DEFAULT_KEY):
     return np.clip(hdr * scale, 0.0, 1.0).astype(np.float32), scale
 
 
-def expose(hdr, key=DEFAULT_KEY, reference=None):
+def expose(hdr, key=DEFAULT_KEY, reference=None, clamp=True):
     """Auto-exposure and clamping of (B, 3, H, W) HDR torch tensors, as ``expose_numpy`` does
     to each image: each image scaled so its mean Rec. 709 luminance is ``key``, then clamped to
-    [0, 1]. With ``reference`` (same shape), each image takes the scale that exposes its
-    reference image instead (to compare two renders under one camera setting). Raises
-    ValueError for another shape, or where a metered image is black or not finite."""
+    [0, 1] (unless ``clamp`` is False). With ``reference`` (same shape), each image takes the
+    scale that exposes its reference image instead (to compare two renders under one camera
+    setting). Raises ValueError for another shape, or where a metered image is black or not
+    finite."""
     metered = hdr if reference is None else reference
     if hdr.ndim != 4 or hdr.shape[1] != 3 or metered.shape != hdr.shape:
         raise ValueError(f"expose takes (B, 3, H, W) images (and a reference of their shape), "
@@ -48,4 +49,5 @@ def expose(hdr, key=DEFAULT_KEY, reference=None):
     if bad.any():
         raise ValueError(f"cannot expose images {bad.nonzero().flatten().tolist()}: mean "
                          f"luminance {mean[bad].tolist()}")
-    return (hdr * (key / mean)[:, None, None, None]).clamp(0, 1)
+    exposed = hdr * (key / mean)[:, None, None, None]
+    return exposed.clamp(0, 1) if clamp else exposed

@@ -48,6 +48,11 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
 @click.option("--self-augmented-epochs", default=10, show_default=True)
 @click.option("--unlabeled-per-labeled", default=1, show_default=True)
 @click.option("--unlabeled-limit", type=int, default=None)
+@click.option("--relit-loss-weight", default=0.0, show_default=True,
+              help="Weight of the relit loss (the estimate and the truth rendered under new "
+                   "lighting) added to the parameter losses.")
+@click.option("--relit-loss-size", default=64, show_default=True,
+              help="Side (px) of the relit loss's renders.")
 @click.option("--max-view-angle", default=0.0, show_default=True)
 @click.option("--seed", default=0, show_default=True)
 @click.option("--checkpoint-every", default=500, show_default=True)
