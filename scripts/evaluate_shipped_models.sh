@@ -1,39 +1,66 @@
 #!/usr/bin/env bash
 # The held-out evaluation of the shipped models (models/README.md), on this CPU.
 # Held-out data, never used in training:
-#   - material sets: make-materials seed 1 (training used seeds 0 and 2-8), 10 per class, and
+#   - material sets: make-materials seed 1 (training used seeds 0 and 2-8), 40 per class, and
 #     the real set materialx_wood (wood); the general network is also tested on
 #     godot_aluminium, a real set without a metalness map, which the reduction makes a
 #     dielectric, so it is not in the metal network's test;
 #   - probes: the 8 probes of HELD_OUT_PROBES (training used the other 26 shared probes).
-# Each set is rendered with Mitsuba under each held-out probe (render-dataset, 1 rotation,
-# 2 crops of 256 px from a 512 px render, 128 spp); sa-evaluate takes 48 samples evenly
-# spaced over each class's renders and relights each estimate under 3 other held-out probes.
+# The 40 sets of a class are split into 4 groups of 10; group g is rendered with Mitsuba under
+# the probe pair g (render-dataset, 1 rotation, a 512 px render per set and probe, one 256 px
+# crop of it: the scale of the training crops; 128 spp), the real sets under every pair:
+# 80 samples per class (88 for wood), each probe in 20.
+# sa-evaluate takes up to 96 samples evenly spaced over a class's renders and relights each
+# estimate under 3 other held-out probes. (Until 2026-12 the test had 10 sets per class and
+# 48 samples, which proved too few: the same model scored 0.96x and 0.84x naive on the two.)
 #
-#   bash scripts/evaluate_shipped_models.sh SHARED_DATA WORK
+#   bash scripts/evaluate_shipped_models.sh SHARED_DATA WORK [MODELS_DIR]
 set -euo pipefail
-SHARED=$1 WORK=$2 BIN=${BIN:-.venv/bin}
-HELD_OUT_PROBES="aristea_wreck_puresky brown_photostudio_02 circus_arena dikhololo_night
-                 env-lab kiara_1_dawn modern_buildings_2 rainforest_trail"
+SHARED=$1 WORK=$2 MODELS=${3:-models} BIN=${BIN:-.venv/bin}
+PAIRS=("aristea_wreck_puresky brown_photostudio_02" "circus_arena dikhololo_night"
+       "env-lab kiara_1_dawn" "modern_buildings_2 rainforest_trail")
 mkdir -p "$WORK/probes" "$WORK/eval"
-for probe in $HELD_OUT_PROBES; do ln -sfn "$(realpath "$SHARED/probes/$probe.exr")" "$WORK/probes/"; done
-for class in wood plastic metal; do
-    "$BIN/make-materials" --class "$class" --count 10 --seed 1 --resolution 512 \
-        --out "$WORK/sets/$class"
+for g in 0 1 2 3; do
+    mkdir -p "$WORK/probes/pair$g"
+    for probe in ${PAIRS[$g]}; do
+        ln -sfn "$(realpath "$SHARED/probes/$probe.exr")" "$WORK/probes/pair$g/"
+        ln -sfn "$(realpath "$SHARED/probes/$probe.exr")" "$WORK/probes/"
+    done
 done
-ln -sfn "$(realpath "$SHARED/svbrdfs/materialx_wood")" "$WORK/sets/wood/"
-mkdir -p "$WORK/sets/aluminium"
-ln -sfn "$(realpath "$SHARED/svbrdfs/godot_aluminium")" "$WORK/sets/aluminium/"
+for class in wood plastic metal; do
+    if [ ! -d "$WORK/sets/$class" ]; then
+        "$BIN/make-materials" --class "$class" --count 40 --seed 1 --resolution 512 \
+            --out "$WORK/sets/$class"
+    fi
+done
+real_sets() {  # the real held-out sets of a class
+    case $1 in wood) echo materialx_wood;; aluminium) echo godot_aluminium;; esac
+}
 for class in wood plastic metal aluminium; do
-    "$BIN/render-dataset" --probes "$WORK/probes" --svbrdfs "$WORK/sets/$class" \
-        --out "$WORK/heldout_$class" --resolution 256 --render-size 512 --rotations 1 \
-        --crops 2 --spp 128 --test-materials 0 --test-probes 0
+    for g in 0 1 2 3; do
+        group="$WORK/groups/$class-$g"
+        mkdir -p "$group"
+        if [ "$class" != aluminium ]; then
+            for i in $(seq $((g * 10)) $((g * 10 + 9))); do
+                ln -sfn "$(realpath "$WORK/sets/$class/${class}_s1_$(printf %04d "$i")")" "$group/"
+            done
+        fi
+        for set in $(real_sets "$class"); do
+            ln -sfn "$(realpath "$SHARED/svbrdfs/$set")" "$group/"
+        done
+        "$BIN/render-dataset" --probes "$WORK/probes/pair$g" --svbrdfs "$group" \
+            --out "$WORK/heldout/$class-$g" --resolution 256 --render-size 512 --rotations 1 \
+            --crops 1 --spp 128 --test-materials 0 --test-probes 0
+    done
 done
+datasets() {  # --dataset options of the classes given
+    for class in "$@"; do for g in 0 1 2 3; do echo --dataset "$WORK/heldout/$class-$g"; done; done
+}
 for class in wood plastic metal; do
-    "$BIN/sa-evaluate" --class "$class" --dataset "$WORK/heldout_$class" --split all \
-        --probes "$WORK/probes" --samples 48 --out "$WORK/eval/$class" > "$WORK/eval/$class.json"
+    "$BIN/sa-evaluate" --model "$MODELS/svbrdf-$class.safetensors" $(datasets "$class") \
+        --split all --probes "$WORK/probes" --samples 96 --out "$WORK/eval/$class" \
+        > "$WORK/eval/$class.json"
 done
-"$BIN/sa-evaluate" --class general --dataset "$WORK/heldout_wood" \
-    --dataset "$WORK/heldout_plastic" --dataset "$WORK/heldout_aluminium" \
-    --dataset "$WORK/heldout_metal" --split all --probes "$WORK/probes" --samples 48 \
+"$BIN/sa-evaluate" --model "$MODELS/svbrdf-general.safetensors" \
+    $(datasets wood plastic metal aluminium) --split all --probes "$WORK/probes" --samples 96 \
     --out "$WORK/eval/general" > "$WORK/eval/general.json"
