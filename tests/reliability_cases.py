@@ -268,6 +268,10 @@ CASES = [
          "not an sa-svbrdf checkpoint"),
         ("--init-from", "truncated safetensors", lambda i, o: sa_train(i, o) + [
             "--init-from", str(i.truncated_model)], "truncated_model", "cannot read safetensors"),
+        ("--crop-scales", "not whole numbers", lambda i, o: sa_train(i, o) + [
+            "--crop-scales", "1,1.5"], None, "not a comma-separated list of whole numbers"),
+        ("--crop-scales", "a crop larger than the render", lambda i, o: sa_train(i, o) + [
+            "--crop-scales", "1,4"], None, "smaller than the largest crop"),
         ("--train-networks", "an unknown network", lambda i, o: sa_train(i, o) + [
             "--train-networks", "homogeneous,specular"], None, "name some of homogeneous"),
         *_out_cases(sa_train)]],

@@ -350,6 +350,29 @@ def test_relit_loss_is_zero_for_the_truth_and_pulls_specular_and_roughness_towar
         assert float((guess.grad * offset).sum()) > 0, (name, offset)  # descent moves back
 
 
+def test_a_crop_at_scale_two_is_the_whole_map_box_filtered_to_half_its_size():
+    bank = ProbeBank([load_probe(path).radiance for path in find_probes(BUNDLED_PROBES)])
+    sampler = MapSampler(BUNDLED_MATERIALS, bank, [0], size=16, render_size=32,
+                         crop_scales=(2,))
+    batch = sampler.batch(np.random.default_rng(5), 3)
+    materials = {m.name: m for m in sampler.materials}  # square, 32 px: one crop covers it
+    for i, sample in enumerate(batch["provenance"]):
+        full = materials[sample["material"]]
+        whole = full.albedo.reshape(16, 2, 16, 2, 3).mean((1, 3))
+        expected = np.sort((whole / (2 * whole.mean())).ravel())
+        # A quarter turn permutes the pixels: compare the sorted values.
+        np.testing.assert_allclose(np.sort(batch["albedo"][i].numpy().ravel()), expected,
+                                   rtol=1e-5)
+        normal = batch["normal"][i].numpy()
+        np.testing.assert_allclose(np.linalg.norm(normal, axis=0), 1.0, atol=1e-5)
+        pooled = full.normal.reshape(16, 2, 16, 2, 3).mean((1, 3))
+        pooled_z = pooled[..., 2] / np.linalg.norm(pooled, axis=2)  # turns keep n_z
+        np.testing.assert_allclose(np.sort(normal[2].ravel()), np.sort(pooled_z.ravel()),
+                                   atol=1e-5)
+    with pytest.raises(ValueError, match="smaller than the largest crop"):
+        MapSampler(BUNDLED_MATERIALS, bank, [0], size=16, render_size=32, crop_scales=(1, 3))
+
+
 def test_sa_evaluate_takes_the_test_split_of_datasets_in_order(dataset, tmp_path):
     model = tmp_path / "tiny.safetensors"
     save_model(SVBRDFNet(NetworkConfig(input_size=32, width=4, max_width=16, levels=3,

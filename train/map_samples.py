@@ -6,7 +6,10 @@ docs/torch-renderer.md) in place of Mitsuba, so every minibatch sees new lightin
 
 1. a random material of the folder, its maps resampled so that their shorter side is
    ``render_size`` (as render-dataset's ``--render-size``);
-2. a random ``size`` x ``size`` crop, turned by a random quarter turn (normals turn with it);
+2. a random square crop of ``size`` x k pixels, k drawn from ``crop_scales`` (1 by default),
+   box filtered down to ``size`` x ``size`` (normals renormalized) and turned by a random
+   quarter turn (normals turn with it): k = 2 shows the texture at half its scale, as a
+   photo taken from twice as far;
 3. the paper's relative labels of the crop (render.common.labels.relative_labels);
 4. a render under a random probe of ``probe_choices``, at a random rotation about +z and a view
    within ``max_view_angle`` of the normal, auto-exposed and clamped to [0, 1].
@@ -29,12 +32,17 @@ from render.torch_renderer.renderer import render
 class MapSampler:
     """Random labeled samples of the materials in ``folder`` (one sub-folder per material)."""
 
-    def __init__(self, folder, probes, probe_choices, size, render_size, max_view_angle=0.0):
-        if render_size < size:
-            raise ValueError(f"render_size {render_size} is smaller than the sample size {size}")
+    def __init__(self, folder, probes, probe_choices, size, render_size, max_view_angle=0.0,
+                 crop_scales=(1,)):
+        if not crop_scales or any(int(k) != k or k < 1 for k in crop_scales):
+            raise ValueError(f"crop scales {list(crop_scales)} are not whole numbers >= 1")
+        if render_size < size * max(crop_scales):
+            raise ValueError(f"render_size {render_size} is smaller than the largest crop "
+                             f"({size} x {max(crop_scales)})")
         self.folder, self.probes = folder, probes
         self.probe_choices = np.asarray(probe_choices)
         self.size, self.max_view_angle = size, max_view_angle
+        self.crop_scales = [int(k) for k in crop_scales]
         self.materials = [resample(load_material(path), render_size)
                           for path in find_materials(folder)]
 
@@ -71,21 +79,36 @@ class MapSampler:
         return {"image": expose(hdr)} | labels | {"provenance": provenance}
 
     def _choice(self, rng):
-        """(material index, crop top, crop left, quarter turns), drawn from ``rng``."""
+        """(material index, crop top, crop left, quarter turns, crop scale), drawn from
+        ``rng`` (the scale only when there is more than one to choose from)."""
         index = int(rng.integers(len(self.materials)))
         height, width = self.materials[index].albedo.shape[:2]
-        return (index, int(rng.integers(0, height - self.size + 1)),
-                int(rng.integers(0, width - self.size + 1)), int(rng.integers(4)))
+        scale = self.crop_scales[0]
+        if len(self.crop_scales) > 1:
+            scale = self.crop_scales[int(rng.integers(len(self.crop_scales)))]
+        window = self.size * scale
+        return (index, int(rng.integers(0, height - window + 1)),
+                int(rng.integers(0, width - window + 1)), int(rng.integers(4)), scale)
 
-    def _crop(self, index, top, left, turns):
+    def _crop(self, index, top, left, turns, scale):
         """Channel-first labels of one crop."""
         material = self.materials[index]
-        window = np.s_[top:top + self.size, left:left + self.size]
-        _, albedo, normal = rotate_quarter_turns(material.albedo[window],
-                                                 material.albedo[window],
-                                                 material.normal[window], turns)
+        side = self.size * scale
+        window = np.s_[top:top + side, left:left + side]
+        albedo, normal = material.albedo[window], material.normal[window]
+        if scale > 1:
+            albedo, normal = _box_down(albedo, scale), _box_down(normal, scale)
+            normal /= np.linalg.norm(normal, axis=2, keepdims=True)
+        _, albedo, normal = rotate_quarter_turns(albedo, albedo, normal, turns)
         albedo, log_specular = relative_labels(albedo, material.specular)
         return {"material": material.name,
                 "albedo": albedo.transpose(2, 0, 1), "normal": normal.transpose(2, 0, 1),
                 "log_specular": log_specular.astype(np.float32),
                 "log_roughness": np.array([np.log(material.roughness)], np.float32)}
+
+
+def _box_down(pixels, factor):
+    """(H, W, C) pixels averaged over ``factor`` x ``factor`` blocks (H, W divisible by it)."""
+    height, width, channels = pixels.shape
+    return pixels.reshape(height // factor, factor, width // factor, factor, channels).mean(
+        (1, 3), dtype=np.float64).astype(np.float32)

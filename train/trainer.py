@@ -93,6 +93,10 @@ class TrainConfig:
     render_size: int = 512
     """With ``labeled_maps``: the shorter side the material maps are resampled to before
     cropping (render-dataset's ``--render-size``)."""
+    crop_scales: tuple = (1,)
+    """With ``labeled_maps``: each crop spans the input size times one of these whole numbers
+    of map pixels, box filtered to the input size (train.map_samples): (1, 2) shows textures
+    at their scale and at half of it. ``render_size`` must hold the largest crop."""
     epoch_samples: int = 3200
     """With ``labeled_maps``: labeled samples per epoch."""
     unlabeled: str | None = None
@@ -145,7 +149,8 @@ class Run:
         self.augmentation_probes = self._augmentation_probes()
         if cfg.labeled_maps is not None:
             self.maps = MapSampler(cfg.labeled_maps, self.probes, self.augmentation_probes,
-                                   cfg.network.input_size, cfg.render_size, cfg.max_view_angle)
+                                   cfg.network.input_size, cfg.render_size, cfg.max_view_angle,
+                                   cfg.crop_scales)
             steps_per_epoch = cfg.epoch_samples // cfg.batch_size
             self.log_specular_range = self.maps.log_specular_range()
         else:

@@ -23,6 +23,10 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
               help="Material folders: labeled minibatches rendered on the fly (torch renderer).")
 @click.option("--render-size", default=512, show_default=True,
               help="With --labeled-maps: shorter side the maps are resampled to before cropping.")
+@click.option("--crop-scales", default="1", show_default=True,
+              help="With --labeled-maps: comma-separated whole numbers; a crop spans the input "
+                   "size times one of them, box filtered down (1,2: textures at their scale "
+                   "and at half of it).")
 @click.option("--epoch-samples", default=3200, show_default=True,
               help="With --labeled-maps: labeled samples per epoch.")
 @click.option("--init-from", type=click.Path(), default=None,
@@ -59,7 +63,7 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
 @click.option("--log-every", default=50, show_default=True)
 @click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
 def main(network_name, input_size, width, levels, learning_rate, lr_gamma, train_networks,
-         **options):
+         crop_scales, **options):
     """Train SVBRDF-net, with self-augmentation when unlabeled photos are given."""
     main_process = os.environ.get("RANK", "0") == "0"  # under torchrun, only rank 0 logs
     logging.basicConfig(level=logging.INFO if main_process else logging.WARNING,
@@ -72,6 +76,7 @@ def main(network_name, input_size, width, levels, learning_rate, lr_gamma, train
                                                                     lr_gamma=lr_gamma),
                           train_networks=tuple(name.strip() for name in
                                                train_networks.split(",") if name.strip()),
+                          crop_scales=_whole_numbers(crop_scales, "--crop-scales"),
                           **options)
         if main_process:
             click.echo(json.dumps(dataclasses.asdict(cfg), indent=2))
@@ -80,6 +85,15 @@ def main(network_name, input_size, width, levels, learning_rate, lr_gamma, train
         raise click.ClickException(str(error)) from None
     if history["test"]:
         click.echo(json.dumps({"final_test": history["test"][-1]}))
+
+
+def _whole_numbers(text, option):
+    """The comma-separated whole numbers of an option, as a tuple."""
+    try:
+        return tuple(int(value) for value in text.split(","))
+    except ValueError:
+        raise click.BadParameter(f"'{text}' is not a comma-separated list of whole numbers",
+                                 param_hint=option) from None
 
 
 if __name__ == "__main__":
