@@ -86,7 +86,7 @@ def test_estimate_from_photos_writes_maps_scene_and_preview(trained_run, tmp_pat
     assert report["network_ms"] > 0 and 0.02 <= report["roughness"] <= 1
     folder = tmp_path / "est" / "wood photo"
     for name in ("albedo.exr", "albedo.png", "normal.exr", "normal.png", "material.json",
-                 "scene.xml", "preview.png"):
+                 "scene.xml", "material.glb", "preview.png"):
         assert (folder / name).is_file(), name
     assert 'wood%20photo/preview.png' in (tmp_path / "est" / "report.html").read_text()
     estimate = load_material(folder)

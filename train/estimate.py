@@ -9,6 +9,8 @@ network's input size) it writes a folder ``OUT/<photo stem>/`` holding:
                                folder is a material folder that render-dataset reads
     scene.xml                  a Mitsuba scene rendering the estimate
                                (render.mitsuba_reference.scene_file)
+    material.glb               a unit plane carrying the estimate as a glTF 2.0
+                               metallic-roughness material (render.materials.gltf_file)
     preview.png                photo | albedo | normals | the estimate relit under ``probe``
                                (torch renderer, auto-exposed), a probe unrelated to the photo
 
@@ -33,6 +35,7 @@ from render.common.errors import InputError, require_output_folder
 from render.common.exposure import expose
 from render.common.images import write_png
 from render.common.probes import load_probe
+from render.materials.gltf_file import write_gltf_file
 from render.materials.reduced_svbrdf import ReducedSVBRDF, write_material
 from render.mitsuba_reference.scene_file import write_scene_file
 from render.torch_renderer.renderer import ProbeBank, render
@@ -119,6 +122,7 @@ def _write_pictures(folder, photo, svbrdf, bank, probe):
     with atomic_path(folder / "normal.png") as tmp:
         Image.fromarray(np.round((svbrdf.normal + 1) / 2 * 255).astype(np.uint8)).save(tmp, "PNG")
     write_scene_file(folder, svbrdf, probe)
+    write_gltf_file(folder / "material.glb", svbrdf)
     tensors = [torch.as_tensor(a.transpose(2, 0, 1))[None] for a in (svbrdf.albedo,
                                                                      svbrdf.normal)]
     relit = expose(render(tensors[0], tensors[1], torch.as_tensor(svbrdf.specular)[None],
