@@ -88,7 +88,9 @@ def test_estimate_from_photos_writes_maps_scene_and_preview(trained_run, tmp_pat
     for name in ("albedo.exr", "albedo.png", "normal.exr", "normal.png", "material.json",
                  "scene.xml", "material.glb", "preview.png"):
         assert (folder / name).is_file(), name
-    assert 'wood%20photo/preview.png' in (tmp_path / "est" / "report.html").read_text()
+    page = (tmp_path / "est" / "report.html").read_text()
+    assert 'wood%20photo/preview.png' in page
+    assert page.count("<img ") == page.count(' alt="wood photo.png: the photo') == 1
     estimate = load_material(folder)
     assert estimate.albedo.shape == (32, 32, 3)
     assert np.allclose(estimate.specular, report["specular_albedo"], rtol=1e-5)

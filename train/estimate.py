@@ -107,7 +107,9 @@ def _write_report(path, reports):
     """An HTML page: each photo's preview (photo | albedo | normals | relit) and parameters."""
     rows = "".join(
         f"<h2>{html.escape(Path(r['photo']).name)}</h2>"
-        f"<img src=\"{quote(Path(r['out']).name)}/preview.png\" width=\"1024\">"
+        f"<img src=\"{quote(Path(r['out']).name)}/preview.png\" width=\"1024\" "
+        f"alt=\"{html.escape(Path(r['photo']).name)}: the photo, the estimated relative diffuse "
+        f"albedo, the estimated normals, and the estimate relit under another probe\">"
         f"<p>relative specular albedo {' '.join(f'{v:.4f}' for v in r['specular_albedo'])}; "
         f"Ward roughness {r['roughness']:.4f}; network {r['network_ms']} ms</p>" for r in reports)
     page = ("<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>sa-estimate</title>"
