@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Fine-tunes shipped class networks on a CPU (models/README.md, "stage 3"): one network of
+# the three at a time (NETWORK: homogeneous or albedo), starting from the shipped file, with
+# the relit loss (sa-train --relit-loss-weight) added to the parameter losses; labeled
+# minibatches rendered on the fly from 200 procedural sets of the class (make-materials seeds
+# 0, 2, 3, 4; seed 1 makes the held-out sets) under the 26 training probes. Re-run after an
+# interruption, it resumes each run from its newest checkpoint.
+#
+# Environment: NETWORK (default homogeneous), EPOCHS (of 200 steps, default 10),
+# RELIT_WEIGHT (default 300), LEARNING_RATE (default 0.0005).
+#
+#   bash scripts/finetune_shipped_models_cpu.sh WORK PROBES_TRAIN OUT_DIR CLASS...
+set -euo pipefail
+WORK=$1 PROBES=$2 OUT_DIR=$3
+shift 3
+NETWORK=${NETWORK:-homogeneous} EPOCHS=${EPOCHS:-10} RELIT_WEIGHT=${RELIT_WEIGHT:-300}
+LEARNING_RATE=${LEARNING_RATE:-0.0005} BIN=${BIN:-.venv/bin}
+mkdir -p "$OUT_DIR"
+for class in "$@"; do
+    mkdir -p "$WORK/maps/$class"
+    for seed in 0 2 3 4; do
+        if [ ! -d "$WORK/sets/$class-$seed" ]; then
+            "$BIN/make-materials" --class "$class" --count 50 --seed "$seed" --resolution 512 \
+                --out "$WORK/sets/$class-$seed"
+        fi
+        for set in "$WORK/sets/$class-$seed"/*/; do ln -sfn "$(realpath "$set")" "$WORK/maps/$class/"; done
+    done
+    run="$WORK/runs/$class-$NETWORK"
+    "$BIN/sa-train" --init-from "models/svbrdf-$class.safetensors" --train-networks "$NETWORK" \
+        --relit-loss-weight "$RELIT_WEIGHT" --relit-loss-size 64 \
+        --labeled-maps "$WORK/maps/$class" --probes "$PROBES" --out "$run" --network compact \
+        --labeled-epochs "$EPOCHS" --self-augmented-epochs 0 --learning-rate "$LEARNING_RATE" \
+        --lr-gamma 1e-3 --epoch-samples 3200 --checkpoint-every 200 --log-every 50
+    "$BIN/python" scripts/export_model.py "$run" "$OUT_DIR/svbrdf-$class.safetensors" \
+        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, lr $LEARNING_RATE, from models/svbrdf-$class.safetensors"
+done
