@@ -189,6 +189,7 @@ def test_a_model_file_round_trips_in_float16(tmp_path):
     torch.manual_seed(1)
     net = SVBRDFNet(TINY).eval()
     save_model(net, tmp_path / "m.safetensors", {"class": "wood"})
+    assert (tmp_path / "m.safetensors").stat().st_mode & 0o777 == 0o644
     loaded = load_network(tmp_path / "m.safetensors")
     image = torch.rand(2, 3, 32, 32)
     with torch.no_grad():

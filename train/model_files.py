@@ -40,7 +40,7 @@ def shipped_model_path(name):
 
 def save_model(net, path, metadata):
     """Write ``net``'s weights (floats as float16) and ``metadata`` (str -> JSON-able) as a
-    shipped model file, atomically."""
+    shipped model file, atomically, readable by everyone (safetensors creates it owner-only)."""
     tensors = {name: (value.half() if value.is_floating_point() else value).contiguous().cpu()
                for name, value in net.state_dict().items()}
     header = {"format": FORMAT, "network": json.dumps(vars(net.config))}
@@ -48,6 +48,7 @@ def save_model(net, path, metadata):
                for key, value in metadata.items()}
     with atomic_path(Path(path)) as tmp:
         save_file(tensors, str(tmp), metadata=header)
+        tmp.chmod(0o644)
 
 
 def model_metadata(path):
