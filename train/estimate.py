@@ -30,7 +30,7 @@ import torch
 from PIL import Image
 
 from render.common.atomic_files import atomic_path
-from render.common.color import to_png_bytes
+from render.common.color import normal_to_png_bytes, to_png_bytes
 from render.common.errors import InputError, require_output_folder
 from render.common.exposure import expose
 from render.common.images import write_png
@@ -122,7 +122,7 @@ def _write_report(path, reports):
 def _write_pictures(folder, photo, svbrdf, bank, probe):
     write_png(folder / "albedo.png", svbrdf.albedo)
     with atomic_path(folder / "normal.png") as tmp:
-        Image.fromarray(np.round((svbrdf.normal + 1) / 2 * 255).astype(np.uint8)).save(tmp, "PNG")
+        Image.fromarray(normal_to_png_bytes(svbrdf.normal)).save(tmp, "PNG")
     write_scene_file(folder, svbrdf, probe)
     write_gltf_file(folder / "material.glb", svbrdf)
     tensors = [torch.as_tensor(a.transpose(2, 0, 1))[None] for a in (svbrdf.albedo,
@@ -130,7 +130,7 @@ def _write_pictures(folder, photo, svbrdf, bank, probe):
     relit = expose(render(tensors[0], tensors[1], torch.as_tensor(svbrdf.specular)[None],
                           torch.tensor([svbrdf.roughness]), bank, [0]))[0]
     panels = [to_png_bytes(photo.transpose(1, 2, 0)), to_png_bytes(svbrdf.albedo),
-              np.round((svbrdf.normal + 1) / 2 * 255).astype(np.uint8),
+              normal_to_png_bytes(svbrdf.normal),
               to_png_bytes(relit.numpy().transpose(1, 2, 0))]
     with atomic_path(folder / "preview.png") as tmp:
         Image.fromarray(np.concatenate(panels, axis=1)).save(tmp, "PNG")

@@ -225,7 +225,8 @@ def run(cfg, net):
         for i, (image, truth, own_probe, name) in enumerate(tqdm(samples, desc="sa-evaluate",
                                                                  unit="sample")):
             photo = read_photo(as_photo_file(image, photos, f"{i:05d}"), size)
-            truth = maps_at_size({name: value.to(cfg.device) for name, value in truth.items()}, size)
+            truth = maps_at_size({name: value.to(cfg.device) for name, value in truth.items()},
+                                 size)
             probe_index, rotation = novel_lightings(np.random.default_rng([cfg.seed, 2, i]),
                                                     own_probe, probe_names, held_out,
                                                     cfg.relights)

@@ -32,13 +32,19 @@ def normal_angle_deg(prediction, target):
     return torch.rad2deg(torch.acos(cosine)).mean()
 
 
+def render_parameters(parameters, probes, probe_index, rotation_deg):
+    """HDR torch renders (B, 3, H, W) of label-form parameters (roughness clamped to [0.02, 1])
+    under the given probes and rotations."""
+    return render(parameters["albedo"], parameters["normal"],
+                  torch.exp(parameters["log_specular"]),
+                  torch.exp(parameters["log_roughness"][:, 0]).clamp(0.02, 1.0), probes,
+                  probe_index, rotation_deg)
+
+
 def relit(parameters, probes, probe_index, rotation_deg):
     """Exposed torch renders (B, 3, H, W) of label-form parameters under the given probes and
     rotations."""
-    hdr = render(parameters["albedo"], parameters["normal"], torch.exp(parameters["log_specular"]),
-                 torch.exp(parameters["log_roughness"]).clamp(0.02, 1.0), probes, probe_index,
-                 rotation_deg)
-    return expose(hdr)
+    return expose(render_parameters(parameters, probes, probe_index, rotation_deg))
 
 
 def maps_at_size(parameters, size):
@@ -62,11 +68,9 @@ def relit_loss(prediction, target, probes, probe_index, rotation_deg, size):
     missing clamp."""
     truth = maps_at_size({name: target[name] for name in LABELS}, size)
     estimate = maps_at_size({name: prediction.get(name, target[name]) for name in LABELS}, size)
-    renders = [render(p["albedo"], p["normal"], torch.exp(p["log_specular"]),
-                      torch.exp(p["log_roughness"][:, 0]).clamp(0.02, 1.0), probes, probe_index,
-                      rotation_deg) for p in (truth, estimate)]
-    truth_hdr = renders[0].detach()
-    exposed = [expose(hdr, reference=truth_hdr, clamp=False) for hdr in (truth_hdr, renders[1])]
+    truth_hdr = render_parameters(truth, probes, probe_index, rotation_deg).detach()
+    estimate_hdr = render_parameters(estimate, probes, probe_index, rotation_deg)
+    exposed = [expose(hdr, reference=truth_hdr, clamp=False) for hdr in (truth_hdr, estimate_hdr)]
     return torch.mean((torch.log1p(exposed[1]) - torch.log1p(exposed[0])) ** 2)
 
 

@@ -305,7 +305,6 @@ class Run:
         self.step = index + 1
         return self.place.mean({name: value.detach().item() for name, value in terms.items()})
 
-
     def _relit_loss(self, index, prediction, batch):
         """The relit loss of step ``index``, under lightings drawn for the global minibatch
         (this process takes its shard)."""

@@ -32,3 +32,9 @@ def luminance(rgb):
 def to_png_bytes(linear_rgb):
     """Linear RGB in [0, 1] to 8-bit sRGB, as a uint8 array for PNG writing."""
     return np.round(linear_to_srgb(linear_rgb) * 255.0).astype(np.uint8)
+
+
+def normal_to_png_bytes(normal):
+    """Unit normals (..., 3) encoded (n + 1) / 2 as 8-bit values (no transfer function), as a
+    uint8 array for PNG writing."""
+    return np.round((np.clip(normal, -1.0, 1.0) + 1.0) / 2.0 * 255.0).astype(np.uint8)

@@ -5,7 +5,7 @@ The plane is the square [-0.5, 0.5]^2 in glTF's x-y plane, facing +z (glTF is y-
 sample stands like a wall facing the default camera); texture u grows with +x and v with -y,
 so the image's row 0 is at the top, as in every map of this project.
 
-Mapping of the reduced model (docs/gltf.md gives the reasoning and the measured error):
+Mapping of the reduced model (docs/gltf.md gives the reasoning and the known differences):
 - **Scale.** The estimate's albedos are relative (mean 0.5) and may exceed 1; glTF's are
   reflectances in [0, 1]. Diffuse and specular albedo are divided by one common factor,
   max(1, largest diffuse albedo, largest specular albedo), which keeps their ratio (what a
@@ -29,7 +29,7 @@ import pygltflib
 from PIL import Image
 
 from render.common.atomic_files import atomic_path
-from render.common.color import to_png_bytes
+from render.common.color import normal_to_png_bytes, to_png_bytes
 
 DIELECTRIC_F0 = 0.04
 """glTF's dielectric reflectance at normal incidence with the default IOR 1.5."""
@@ -44,12 +44,12 @@ _INDICES = np.array([0, 1, 2, 0, 2, 3], np.uint16)
 
 def gltf_parameters(svbrdf):
     """The glTF values of the module docstring's mapping: dict of base_color (H, W, 3) linear
-    in [0, 1], specular_color_factor (3,), roughness_factor, scale."""
+    in [0, 1], specular_color_factor (3,), roughness_factor."""
     scale = max(1.0, float(svbrdf.albedo.max()), float(np.max(svbrdf.specular)))
     return {"base_color": np.clip(svbrdf.albedo / scale, 0.0, 1.0),
             "specular_color_factor": (np.asarray(svbrdf.specular, np.float64) / scale
                                       / DIELECTRIC_F0),
-            "roughness_factor": float(np.sqrt(svbrdf.roughness)), "scale": scale}
+            "roughness_factor": float(np.sqrt(svbrdf.roughness))}
 
 
 def _png(pixels_uint8):
@@ -62,9 +62,9 @@ def write_gltf_file(path, svbrdf):
     """Write ``svbrdf`` (a ReducedSVBRDF) as a glTF 2.0 binary file at ``path`` (atomically);
     returns the path."""
     values = gltf_parameters(svbrdf)
-    normal_png = np.round((svbrdf.normal + 1.0) / 2.0 * 255.0).clip(0, 255).astype(np.uint8)
     blobs = [_POSITIONS.tobytes(), _NORMALS.tobytes(), _TANGENTS.tobytes(), _TEXCOORDS.tobytes(),
-             _INDICES.tobytes(), _png(to_png_bytes(values["base_color"])), _png(normal_png)]
+             _INDICES.tobytes(), _png(to_png_bytes(values["base_color"])),
+             _png(normal_to_png_bytes(svbrdf.normal))]
     views, offset = [], 0
     for index, blob in enumerate(blobs):
         target = (pygltflib.ARRAY_BUFFER if index < 4 else

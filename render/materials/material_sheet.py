@@ -10,7 +10,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from render.common.atomic_files import atomic_path
-from render.common.color import to_png_bytes
+from render.common.color import normal_to_png_bytes, to_png_bytes
 from render.common.labels import relative_labels
 
 TILE = 160
@@ -26,8 +26,7 @@ def write_material_sheet(path, svbrdfs, renders=None):
         top = row * (TILE + LABEL_HEIGHT)
         albedo, _ = relative_labels(svbrdf.albedo, svbrdf.specular)
         swatch = np.broadcast_to(svbrdf.specular.astype(np.float32), (TILE, TILE, 3))
-        tiles = [to_png_bytes(albedo), np.round((svbrdf.normal + 1) / 2 * 255).astype(np.uint8),
-                 to_png_bytes(swatch)]
+        tiles = [to_png_bytes(albedo), normal_to_png_bytes(svbrdf.normal), to_png_bytes(swatch)]
         if renders is not None:
             tiles.append(to_png_bytes(renders[row]))
         for column, pixels in enumerate(tiles):
