@@ -11,6 +11,8 @@ every path a case makes bad is one of its attributes, and the test checks that t
 names it.
 """
 
+import struct
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,11 +43,24 @@ FILES = {
     "truncated_albedo": "materials-truncated/m/m_albedo.png",
     "truncated_materials": "materials-truncated",
     "photo_folder": "folder.png", "truncated_photo": "cut.png", "zero_photo": "zero.png",
-    "nan_photo": "nan.exr", "good_photo": "good.png", "foreign_model": "foreign.pt",
+    "nan_photo": "nan.exr", "good_photo": "good.png", "panorama_photo": "panorama.png",
+    "thin_photo": "thin.png", "huge_photo": "huge.png", "foreign_model": "foreign.pt",
     "pickle_model": "payload.pt", "truncated_model": "cut.safetensors",
     "text_model": "notes.safetensors", "unlabeled_truncated": "unlabeled-truncated/cut.png",
     "corrupt_index": "dataset-corrupt/index.json",
 }
+
+
+def _png_header_only(width, height):
+    """A PNG file declaring width x height 8-bit RGB pixels with no pixel data: what a photo
+    too large to decode looks like before it is decoded."""
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data)))
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(b""))
+            + chunk(b"IEND", b""))
 
 
 def make_bad_inputs(root):
@@ -68,6 +83,9 @@ def make_bad_inputs(root):
     photo = inputs.good_photo.read_bytes()
     inputs.truncated_photo.write_bytes(photo[:len(photo) // 3])
     inputs.zero_photo.write_bytes(b"")
+    write_png(inputs.panorama_photo, np.full((16, 320, 3), 0.5))
+    write_png(inputs.thin_photo, np.full((40, 1, 3), 0.5))
+    inputs.huge_photo.write_bytes(_png_header_only(40_000, 30_000))
     _parent(inputs.corrupt_index).write_text('{"samples": [')
     _parent(inputs.unlabeled_truncated).write_bytes(photo[:len(photo) // 3])
     make_probe(inputs.nan_photo, np.where(np.arange(16)[:, None, None] == 3, np.nan,
@@ -288,6 +306,12 @@ CASES = [
          "nan_photo", "NaN or infinite"),
         ("PHOTO", "a text file", lambda i, o: [str(i.text_file), "--out", str(o)],
          "text_file", "unsupported image format"),
+        ("PHOTO", "a panorama, 20:1", lambda i, o: [str(i.panorama_photo), "--out", str(o)],
+         "panorama_photo", "a side ratio of 20.0:1"),
+        ("PHOTO", "1 pixel wide", lambda i, o: [str(i.thin_photo), "--out", str(o)],
+         "thin_photo", "photo is 1x40 pixels"),
+        ("PHOTO", "too large to decode (40,000 x 30,000)", lambda i, o: [
+            str(i.huge_photo), "--out", str(o)], "huge_photo", "image is 40000x30000 pixels"),
         *_model_cases(sa_estimate), *_class_case(sa_estimate),
         ("--probe", "missing file", lambda i, o: sa_estimate(i, o) + [
             "--probe", str(i.missing)], "missing", "probe not found"),

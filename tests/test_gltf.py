@@ -83,3 +83,5 @@ def test_the_file_holds_the_documented_mapping(tmp_path):
                               gltf.bufferViews[gltf.accessors[3].bufferView].byteOffset)
     top = positions.reshape(4, 3)[:, 1] > 0
     assert np.all(texcoords.reshape(4, 2)[top, 1] == 0.0)
+    # The plane has the maps' aspect (20 x 12 px), its longer side 1.
+    np.testing.assert_allclose(np.abs(positions.reshape(4, 3)[:, :2]), [[0.5, 0.3]] * 4)

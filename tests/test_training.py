@@ -80,19 +80,24 @@ def test_estimate_from_photos_writes_maps_scene_and_preview(trained_run, tmp_pat
     write_png(tmp_path / "wood photo.png", photo)
     result = CliRunner().invoke(sa_estimate, [str(tmp_path / "wood photo.png"), "--model",
                                               str(trained_run), "--out", str(tmp_path / "est"),
-                                              "--probe", str(BUNDLED_PROBES / "park.exr")])
+                                              "--probe", str(BUNDLED_PROBES / "park.exr"),
+                                              "--probe", str(BUNDLED_PROBES / "env-studio.exr")])
     assert result.exit_code == 0, result.output
     report = json.loads(result.stdout.strip().splitlines()[-1])
     assert report["network_ms"] > 0 and 0.02 <= report["roughness"] <= 1
+    assert report["map_size"] == [50, 40]  # the whole photo at its own resolution
     folder = tmp_path / "est" / "wood photo"
-    for name in ("albedo.exr", "albedo.png", "normal.exr", "normal.png", "material.json",
-                 "scene.xml", "material.glb", "preview.png"):
+    relit = ["relit-park.png", "relit-env-studio.png"]
+    assert report["relit"] == relit
+    for name in ["albedo.exr", "albedo.png", "normal.exr", "normal.png", "material.json",
+                 "scene.xml", "material.glb", "photo.png", "preview.png"] + relit:
         assert (folder / name).is_file(), name
     page = (tmp_path / "est" / "report.html").read_text()
-    assert 'wood%20photo/preview.png' in page
-    assert page.count("<img ") == page.count(' alt="wood photo.png: the photo') == 1
+    for name in ["photo.png", "albedo.png", "normal.png"] + relit:
+        assert f'src="wood%20photo/{name}"' in page, name
+    assert page.count("<img ") == page.count(' alt="wood photo.png: ') == 5
     estimate = load_material(folder)
-    assert estimate.albedo.shape == (32, 32, 3)
+    assert estimate.albedo.shape == (40, 50, 3)
     assert np.allclose(estimate.specular, report["specular_albedo"], rtol=1e-5)
 
     # The scene file renders the estimate as the dataset's Mitsuba pipeline does.

@@ -1,22 +1,29 @@
 """``sa-estimate``: the reduced SVBRDF of photos, from a trained SVBRDF-net checkpoint.
 
-For each photo (read by train.photos.read_photo: linearized, centre square, resized to the
-network's input size) it writes a folder ``OUT/<photo stem>/`` holding:
+For each photo it writes a folder ``OUT/<photo stem>/`` holding:
 
-    albedo.exr, albedo.png     relative diffuse albedo (mean 0.5): linear EXR, sRGB PNG
-    normal.exr, normal.png     unit normals encoded (n + 1) / 2, OpenGL convention
+    albedo.exr, albedo.png     relative diffuse albedo (mean about 0.5) over the whole photo at
+                               its resolution (the longer side at most ``max_side``;
+                               train.full_resolution): linear EXR, sRGB PNG
+    normal.exr, normal.png     unit normals at the same resolution, encoded (n + 1) / 2, OpenGL
+                               convention
     material.json              relative specular albedo and Ward roughness, photo, model: the
                                folder is a material folder that render-dataset reads
-    scene.xml                  a Mitsuba scene rendering the estimate
+    scene.xml                  a Mitsuba scene rendering the estimate under the first probe
                                (render.mitsuba_reference.scene_file)
-    material.glb               a unit plane carrying the estimate as a glTF 2.0
+    material.glb               a plane (the photo's aspect) carrying the estimate as a glTF 2.0
                                metallic-roughness material (render.materials.gltf_file)
-    preview.png                photo | albedo | normals | the estimate relit under ``probe``
-                               (torch renderer, auto-exposed), a probe unrelated to the photo
+    photo.png                  the photo as read (linearized, then sRGB-encoded) at the maps' size
+    relit-<probe>.png          the estimate relit under each of ``probes`` (torch renderer,
+                               auto-exposed, maps at the network's input scale)
+    preview.png                photo | albedo | normals | relit under the first probe
 
-and ``OUT/report.html``, a page of all the previews with the estimated parameters. The
-command prints a JSON line per photo with the milliseconds the network took. Every photo is
-read and checked before anything is written; an existing output folder is refused.
+and ``OUT/report.html``, a page showing per photo the photo, the full-resolution maps, the
+parameters with units and color spaces, and the relit images. The specular albedo and roughness
+come from the photo's centre square read at the network's input size (train.photos.read_photo),
+the estimate that sa-evaluate measures. The command prints a JSON line per photo with the
+milliseconds the network took (input size, full resolution). Every photo is read and checked
+before anything is written; an existing output folder is refused.
 """
 
 import html
@@ -36,14 +43,16 @@ from render.common.exposure import expose
 from render.common.images import write_png
 from render.common.probes import load_probe
 from render.materials.gltf_file import write_gltf_file
-from render.materials.reduced_svbrdf import ReducedSVBRDF, write_material
+from render.materials.reduced_svbrdf import ReducedSVBRDF, resample, write_material
 from render.mitsuba_reference.scene_file import write_scene_file
 from render.torch_renderer.renderer import ProbeBank, render
+from train.full_resolution import MAX_SIDE, full_resolution_maps
 from train.model_files import load_network
-from train.photos import read_photo
+from train.photos import read_linear_photo, read_photo, resize
 
 REPO = Path(__file__).resolve().parent.parent
-DEFAULT_PROBE = REPO / "probes" / "park.exr"
+DEFAULT_PROBES = tuple(str(REPO / "probes" / name) for name in
+                       ("park.exr", "env-studio.exr", "potsdamer_platz.exr"))
 
 
 def estimate(net, photo):
@@ -67,8 +76,11 @@ class EstimateConfig:
     checkpoint); train.model_files reads each without executing code."""
     out: str
     """Output folder: a folder per photo and report.html."""
-    probe: str = str(DEFAULT_PROBE)
-    """HDR probe of the relit preview and the Mitsuba scene."""
+    probes: tuple = DEFAULT_PROBES
+    """HDR probes of the relit images; the first one also lights the preview and the Mitsuba
+    scene."""
+    max_side: int = MAX_SIDE
+    """Longest side of the albedo and normal maps (px); a smaller photo keeps its own size."""
     device: str = "cpu"
     """torch device of the network (cpu, cuda); previews render on the CPU."""
 
@@ -77,61 +89,114 @@ def run(cfg):
     """Estimate the reduced SVBRDF of each photo of ``cfg`` and write the outputs; returns a
     report per photo (its output folder, network milliseconds and parameters)."""
     require_output_folder(cfg.out)
+    if cfg.max_side < 16:
+        raise ValueError(f"max_side {cfg.max_side} is below 16 px")
     net = load_network(cfg.model, torch.device(cfg.device))
     size = net.config.input_size
-    inputs = [read_photo(path, size) for path in cfg.photos]
+    inputs = [(read_photo(path, size), read_linear_photo(path)) for path in cfg.photos]
     stems = [Path(path).stem for path in cfg.photos]
     if len(set(stems)) != len(stems):
         raise InputError(cfg.photos[0], "two photos share a file name stem (output folders)")
-    preview_probe = load_probe(cfg.probe)
-    bank = ProbeBank([preview_probe.radiance])  # previews render on the CPU
+    probes = [load_probe(path) for path in cfg.probes]
+    if len({Path(path).stem for path in cfg.probes}) != len(probes):
+        raise InputError(cfg.probes[0], "two probes share a file name stem (relit-<stem>.png)")
+    bank = ProbeBank([probe.radiance for probe in probes])  # relit images render on the CPU
     reports = []
-    for path, photo, stem in zip(cfg.photos, inputs, stems):
+    for path, (photo, linear_photo), stem in zip(cfg.photos, inputs, stems):
         start = time.perf_counter()
         svbrdf = estimate(net, photo)
         milliseconds = 1000.0 * (time.perf_counter() - start)
+        start = time.perf_counter()
+        albedo, normal = full_resolution_maps(net, linear_photo, cfg.max_side)
+        full_milliseconds = 1000.0 * (time.perf_counter() - start)
+        full = ReducedSVBRDF(stem, albedo, normal, svbrdf.specular, svbrdf.roughness)
         folder = Path(cfg.out) / stem
-        write_material(folder, ReducedSVBRDF(stem, svbrdf.albedo, svbrdf.normal,
-                                             svbrdf.specular, svbrdf.roughness),
-                       {"photo": str(Path(path).resolve()), "model": str(Path(cfg.model))})
-        _write_pictures(folder, photo, svbrdf, bank, preview_probe)
+        write_material(folder, full, {"photo": str(Path(path).resolve()),
+                                      "model": str(Path(cfg.model))})
+        write_scene_file(folder, full, probes[0])
+        write_gltf_file(folder / "material.glb", full)
+        relit = _write_pictures(folder, linear_photo, full, size, bank, cfg.probes)
         reports.append({"photo": str(path), "out": str(folder), "model": str(cfg.model),
                         "network_ms": round(milliseconds, 1),
+                        "full_resolution_ms": round(full_milliseconds, 1),
+                        "map_size": [int(albedo.shape[1]), int(albedo.shape[0])],
+                        "relit": relit,
                         "specular_albedo": svbrdf.specular.tolist(),
                         "roughness": svbrdf.roughness})
     _write_report(Path(cfg.out) / "report.html", reports)
     return reports
 
 
+def _write_pictures(folder, linear_photo, svbrdf, short_side, bank, probe_paths):
+    """photo.png and the PNG maps at the maps' size, relit-<probe>.png per probe and
+    preview.png at ``short_side`` (the network's input scale); returns the relit files'
+    names."""
+    height, width = svbrdf.albedo.shape[:2]
+    write_png(folder / "photo.png", np.clip(resize(linear_photo, height, width), 0.0, 1.0))
+    write_png(folder / "albedo.png", svbrdf.albedo)
+    with atomic_path(folder / "normal.png") as tmp:
+        Image.fromarray(normal_to_png_bytes(svbrdf.normal)).save(tmp, "PNG")
+    small = resample(svbrdf, short_side) if short_side < min(height, width) else svbrdf
+    height, width = small.albedo.shape[:2]
+    count = len(probe_paths)
+    maps = [torch.as_tensor(a.transpose(2, 0, 1))[None].expand(count, -1, -1, -1)
+            for a in (small.albedo, small.normal)]
+    relit = expose(render(maps[0], maps[1],
+                          torch.as_tensor(small.specular)[None].expand(count, -1),
+                          torch.full((count,), small.roughness), bank, list(range(count))))
+    names = []
+    for image, probe_path in zip(relit, probe_paths):
+        names.append(f"relit-{Path(probe_path).stem}.png")
+        write_png(folder / names[-1], np.clip(image.numpy().transpose(1, 2, 0), 0.0, 1.0))
+    panels = [to_png_bytes(np.clip(resize(linear_photo, height, width), 0.0, 1.0)),
+              to_png_bytes(small.albedo), normal_to_png_bytes(small.normal),
+              to_png_bytes(relit[0].numpy().transpose(1, 2, 0))]
+    with atomic_path(folder / "preview.png") as tmp:
+        Image.fromarray(np.concatenate(panels, axis=1)).save(tmp, "PNG")
+    return names
+
+
 def _write_report(path, reports):
-    """An HTML page: each photo's preview (photo | albedo | normals | relit) and parameters."""
-    rows = "".join(
-        f"<h2>{html.escape(Path(r['photo']).name)}</h2>"
-        f"<img src=\"{quote(Path(r['out']).name)}/preview.png\" width=\"1024\" "
-        f"alt=\"{html.escape(Path(r['photo']).name)}: the photo, the estimated relative diffuse "
-        f"albedo, the estimated normals, and the estimate relit under another probe\">"
-        f"<p>relative specular albedo {' '.join(f'{v:.4f}' for v in r['specular_albedo'])}; "
-        f"Ward roughness {r['roughness']:.4f}; network {r['network_ms']} ms</p>" for r in reports)
-    page = ("<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>sa-estimate</title>"
-            "</head><body><h1>Estimates</h1><p>Each row: photo | relative diffuse albedo | "
-            f"normals | the estimate relit under another probe.</p>{rows}</body></html>\n")
+    """An HTML page: per photo, the photo, the full-resolution maps, the parameters with units
+    and color spaces, and the relit images; every image has alt text."""
+    sections = "".join(_report_section(report) for report in reports)
+    page = ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
+            "<title>sa-estimate</title><style>body{font-family:sans-serif;margin:2em}"
+            "figure{display:inline-block;max-width:360px;margin:0 1em 1em 0;vertical-align:top}"
+            "img{max-width:360px;height:auto;border:1px solid #ccc}</style></head><body>"
+            "<h1>Estimates</h1><p>Reduced SVBRDF (diffuse albedo and normals per pixel, one Ward "
+            "specular lobe) estimated from each photo. Albedos are relative: scaled so that the "
+            "diffuse albedo averages about 0.5 (the photo's exposure is unknown).</p>"
+            f"{sections}</body></html>\n")
     with atomic_path(path) as tmp:
         tmp.write_text(page)
 
 
-def _write_pictures(folder, photo, svbrdf, bank, probe):
-    write_png(folder / "albedo.png", svbrdf.albedo)
-    with atomic_path(folder / "normal.png") as tmp:
-        Image.fromarray(normal_to_png_bytes(svbrdf.normal)).save(tmp, "PNG")
-    write_scene_file(folder, svbrdf, probe)
-    write_gltf_file(folder / "material.glb", svbrdf)
-    tensors = [torch.as_tensor(a.transpose(2, 0, 1))[None] for a in (svbrdf.albedo,
-                                                                     svbrdf.normal)]
-    relit = expose(render(tensors[0], tensors[1], torch.as_tensor(svbrdf.specular)[None],
-                          torch.tensor([svbrdf.roughness]), bank, [0]))[0]
-    panels = [to_png_bytes(photo.transpose(1, 2, 0)), to_png_bytes(svbrdf.albedo),
-              normal_to_png_bytes(svbrdf.normal),
-              to_png_bytes(relit.numpy().transpose(1, 2, 0))]
-    with atomic_path(folder / "preview.png") as tmp:
-        Image.fromarray(np.concatenate(panels, axis=1)).save(tmp, "PNG")
+def _report_section(report):
+    name = html.escape(Path(report["photo"]).name)
+    folder = quote(Path(report["out"]).name)
+    width, height = report["map_size"]
 
+    def figure(src, alt, caption):
+        return (f"<figure><a href=\"{src}\"><img src=\"{src}\" alt=\"{html.escape(alt)}\">"
+                f"</a><figcaption>{caption}</figcaption></figure>")
+
+    relit = "".join(figure(f"{folder}/{quote(file)}",
+                           f"{name}: the estimate relit under probe "
+                           f"{file[len('relit-'):-len('.png')]}",
+                           f"relit under {html.escape(file[len('relit-'):-len('.png')])}")
+                    for file in report["relit"])
+    specular = " ".join(f"{v:.4f}" for v in report["specular_albedo"])
+    return (f"<h2>{name}</h2>"
+            + figure(f"{folder}/photo.png", f"{name}: the photo", "photo")
+            + figure(f"{folder}/albedo.png", f"{name}: estimated relative diffuse albedo, "
+                     f"{width}x{height}", f"diffuse albedo, {width}x{height} px, sRGB PNG "
+                     "(linear in albedo.exr)")
+            + figure(f"{folder}/normal.png", f"{name}: estimated normals, {width}x{height}",
+                     f"normals, {width}x{height} px, (n + 1) / 2, OpenGL convention")
+            + f"<table><tr><th>relative specular albedo (linear RGB, unitless)</th>"
+              f"<td>{specular}</td></tr><tr><th>Ward roughness &alpha; (unitless, slope "
+              f"RMS)</th><td>{report['roughness']:.4f}</td></tr><tr><th>network time</th>"
+              f"<td>{report['network_ms']} ms at input size, {report['full_resolution_ms']} "
+              f"ms for the full-resolution maps</td></tr></table>"
+            + f"<div>{relit}</div>")

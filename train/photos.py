@@ -11,6 +11,12 @@ The rule (the same for unlabeled training photos and for ``sa-estimate``):
    filter when shrinking, bilinear when enlarging).
 4. Clamp to [0, 1].
 The result is (3, size, size) float32 linear RGB, the layout of the network input.
+
+``read_linear_photo`` stops after step 2 (the whole photo, for full-resolution maps,
+train.full_resolution). Both refuse photos with a side under MIN_PHOTO_SIDE pixels or a side
+ratio above MAX_PHOTO_ASPECT (a panorama is not a photo of a flat sample, and the centre square
+would see a sliver of it); render.common.images.read_image refuses images above its pixel limit
+before decoding them.
 """
 
 import numpy as np
@@ -22,14 +28,29 @@ from render.common.images import is_hdr, read_image
 
 PHOTO_GAMMA = 2.2
 MIN_PHOTO_SIDE = 16
+MAX_PHOTO_ASPECT = 4.0
+"""Largest ratio of a photo's longer side to its shorter side."""
 
 
 def read_photo(path, size):
     """(3, size, size) float32 linear RGB in [0, 1], by the rule in the module docstring."""
+    square = centre_square(read_linear_photo(path))
+    return np.ascontiguousarray(np.clip(resize(square, size, size), 0, 1).transpose(2, 0, 1))
+
+
+def read_linear_photo(path):
+    """The whole photo as (H, W, 3) float32 linear RGB (steps 1 and 2 of the rule; not
+    clamped)."""
     pixels = read_image(path)
-    if min(pixels.shape[:2]) < MIN_PHOTO_SIDE:
-        raise InputError(path, f"photo is {pixels.shape[1]}x{pixels.shape[0]} pixels; at least "
+    height, width = pixels.shape[:2]
+    if min(height, width) < MIN_PHOTO_SIDE:
+        raise InputError(path, f"photo is {width}x{height} pixels; at least "
                                f"{MIN_PHOTO_SIDE}x{MIN_PHOTO_SIDE} is needed")
+    if max(height, width) > MAX_PHOTO_ASPECT * min(height, width):
+        raise InputError(path, f"photo is {width}x{height} pixels, a side ratio of "
+                               f"{max(height, width) / min(height, width):.1f}:1; at most "
+                               f"{MAX_PHOTO_ASPECT:g}:1 is accepted (a panorama is not a photo "
+                               "of a flat sample)")
     if pixels.shape[2] == 1:
         pixels = np.repeat(pixels, 3, axis=2)
     if not np.isfinite(pixels).all():
@@ -41,8 +62,7 @@ def read_photo(path, size):
             raise InputError(path, str(error)) from None
     else:
         pixels = pixels ** PHOTO_GAMMA
-    square = centre_square(pixels)
-    return np.ascontiguousarray(np.clip(resize(square, size), 0, 1).transpose(2, 0, 1))
+    return pixels
 
 
 def centre_square(pixels):
@@ -53,9 +73,11 @@ def centre_square(pixels):
     return pixels[top:top + side, left:left + side]
 
 
-def resize(pixels, size):
-    """(S, S, C) float pixels to (size, size, C): box filter down, bilinear up."""
-    method = Image.Resampling.BOX if pixels.shape[0] > size else Image.Resampling.BILINEAR
+def resize(pixels, height, width):
+    """(H, W, C) float pixels to (height, width, C): box filter down, bilinear up (chosen by
+    the longer side)."""
+    shrinking = max(pixels.shape[:2]) > max(height, width)
+    method = Image.Resampling.BOX if shrinking else Image.Resampling.BILINEAR
     return np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(pixels[..., c], np.float32))
-                                .resize((size, size), method))
+                                .resize((width, height), method))
                      for c in range(pixels.shape[2])], -1)

@@ -3,7 +3,9 @@
 Arrays are float32, layout (H, W, C), row 0 at the top of the picture. 8- and 16-bit files
 (PNG, JPEG, TIFF, BMP) are returned as stored, scaled to [0, 1] (no transfer function is
 applied here); OpenEXR and Radiance ``.hdr`` files are returned as stored (linear radiance or
-linear data). Every failure raises ``InputError`` naming the file.
+linear data). Every failure raises ``InputError`` naming the file, including an image above
+MAX_IMAGE_PIXELS, refused from its header before it is decoded (LDR and OpenEXR files; Radiance
+``.hdr`` files are decoded by Mitsuba without that check).
 """
 
 from pathlib import Path
@@ -19,6 +21,9 @@ from render.common.errors import InputError, require_file
 LDR_SUFFIXES = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp"}
 HDR_SUFFIXES = {".exr", ".hdr"}
 IMAGE_SUFFIXES = LDR_SUFFIXES | HDR_SUFFIXES
+MAX_IMAGE_PIXELS = 200_000_000
+"""Largest image read (width x height): 2.4 GB as float32 RGB, twice a 100 MP photo."""
+Image.MAX_IMAGE_PIXELS = None  # Pillow's own limit gives way to MAX_IMAGE_PIXELS (read_image)
 
 
 def is_hdr(path):
@@ -49,6 +54,7 @@ def read_image(path):
 def _read_ldr(path):
     try:
         with Image.open(path) as image:
+            _require_pixel_count(path, *image.size)
             image.load()
             if image.mode == "P":
                 image = image.convert("RGBA")
@@ -61,8 +67,18 @@ def _read_ldr(path):
         raise InputError(path, f"cannot decode image ({_first_line(error)})") from None
 
 
+def _require_pixel_count(path, width, height):
+    if width * height > MAX_IMAGE_PIXELS:
+        raise InputError(path, f"image is {width}x{height} pixels "
+                               f"({width * height / 1e6:.0f} MP); at most "
+                               f"{MAX_IMAGE_PIXELS / 1e6:.0f} MP is read")
+
+
 def _read_exr(path):
     try:
+        with OpenEXR.File(str(path), header_only=True) as exr:
+            low, high = exr.header()["dataWindow"]
+        _require_pixel_count(path, int(high[0] - low[0] + 1), int(high[1] - low[1] + 1))
         with OpenEXR.File(str(path)) as exr:
             channels = exr.parts[0].channels
             if "RGB" in channels or "RGBA" in channels:

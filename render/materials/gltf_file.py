@@ -1,7 +1,8 @@
-"""A reduced SVBRDF as a glTF 2.0 binary file (``material.glb``): a unit plane carrying it as a
+"""A reduced SVBRDF as a glTF 2.0 binary file (``material.glb``): a plane carrying it as a
 metallic-roughness material, for the renderers and tools artists use.
 
-The plane is the square [-0.5, 0.5]^2 in glTF's x-y plane, facing +z (glTF is y-up, so the
+The plane is a rectangle of the maps' aspect, its longer side 1 (the square [-0.5, 0.5]^2 for
+square maps), centred in glTF's x-y plane, facing +z (glTF is y-up, so the
 sample stands like a wall facing the default camera); texture u grows with +x and v with -y,
 so the image's row 0 is at the top, as in every map of this project.
 
@@ -34,8 +35,8 @@ from render.common.color import normal_to_png_bytes, to_png_bytes
 DIELECTRIC_F0 = 0.04
 """glTF's dielectric reflectance at normal incidence with the default IOR 1.5."""
 
-_POSITIONS = np.array([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]],
-                      np.float32)
+_CORNERS = np.array([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]],
+                    np.float32)
 _TEXCOORDS = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)
 _NORMALS = np.tile(np.array([0, 0, 1], np.float32), (4, 1))
 _TANGENTS = np.tile(np.array([1, 0, 0, 1], np.float32), (4, 1))
@@ -62,7 +63,9 @@ def write_gltf_file(path, svbrdf):
     """Write ``svbrdf`` (a ReducedSVBRDF) as a glTF 2.0 binary file at ``path`` (atomically);
     returns the path."""
     values = gltf_parameters(svbrdf)
-    blobs = [_POSITIONS.tobytes(), _NORMALS.tobytes(), _TANGENTS.tobytes(), _TEXCOORDS.tobytes(),
+    height, width = svbrdf.albedo.shape[:2]
+    positions = _CORNERS * np.array([width, height, 1], np.float32) / max(width, height)
+    blobs = [positions.tobytes(), _NORMALS.tobytes(), _TANGENTS.tobytes(), _TEXCOORDS.tobytes(),
              _INDICES.tobytes(), _png(to_png_bytes(values["base_color"])),
              _png(normal_to_png_bytes(svbrdf.normal))]
     views, offset = [], 0
@@ -75,7 +78,7 @@ def write_gltf_file(path, svbrdf):
     binary = b"".join(blob + b"\0" * ((-len(blob)) % 4) for blob in blobs)
     accessors = [
         pygltflib.Accessor(bufferView=0, componentType=pygltflib.FLOAT, count=4, type="VEC3",
-                           min=_POSITIONS.min(0).tolist(), max=_POSITIONS.max(0).tolist()),
+                           min=positions.min(0).tolist(), max=positions.max(0).tolist()),
         pygltflib.Accessor(bufferView=1, componentType=pygltflib.FLOAT, count=4, type="VEC3"),
         pygltflib.Accessor(bufferView=2, componentType=pygltflib.FLOAT, count=4, type="VEC4"),
         pygltflib.Accessor(bufferView=3, componentType=pygltflib.FLOAT, count=4, type="VEC2"),

@@ -5,7 +5,8 @@ import json
 import click
 
 from render.common.errors import InputError
-from train.estimate import DEFAULT_PROBE, EstimateConfig, run
+from train.estimate import DEFAULT_PROBES, EstimateConfig, run
+from train.full_resolution import MAX_SIDE
 from train.model_files import SHIPPED, shipped_model_path
 
 
@@ -17,13 +18,18 @@ from train.model_files import SHIPPED, shipped_model_path
 @click.option("--class", "material_class", type=click.Choice(SHIPPED), default="general",
               show_default=True, help="Shipped network to use when no --model is given.")
 @click.option("--out", required=True, type=click.Path(), help="Output folder.")
-@click.option("--probe", type=click.Path(), default=str(DEFAULT_PROBE), show_default=True,
-              help="HDR probe of the relit preview and the Mitsuba scene.")
+@click.option("--probe", "probes", type=click.Path(), multiple=True,
+              help="HDR probe to relight the estimate under (repeat for several; the first "
+                   "also lights the preview and the Mitsuba scene). Default: the three "
+                   "bundled probes, park, env-studio and potsdamer_platz.")
+@click.option("--max-side", type=int, default=MAX_SIDE, show_default=True,
+              help="Longest side of the albedo and normal maps (px).")
 @click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
-def main(model, material_class, **options):
+def main(model, material_class, probes, **options):
     """Estimate the reduced SVBRDF of each PHOTO."""
     try:
-        cfg = EstimateConfig(model=str(model or shipped_model_path(material_class)), **options)
+        cfg = EstimateConfig(model=str(model or shipped_model_path(material_class)),
+                             probes=tuple(probes) or DEFAULT_PROBES, **options)
         reports = run(cfg)
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None

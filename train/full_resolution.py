@@ -1,0 +1,138 @@
+"""Albedo and normal maps over the whole photo at its own resolution (``sa-estimate``'s maps).
+
+The network's estimate (train.estimate.estimate) sees the photo's centre square at S x S
+pixels (S, the network's input size), the scale it was trained on. The map networks are fully
+convolutional, so they can also run on other sizes; the maps here come from two runs:
+
+1. **Overview**: the whole photo resized so that its shorter side is S (the longer side rounded
+   to a multiple of 2^levels), run in one piece. It sees the texture at the training scale;
+   for a square photo it is exactly the network's S x S estimate.
+2. **Detail**: the photo at output resolution (its own, the longer side reduced to at most
+   ``max_side``), cut into S x S tiles that overlap by ``overlap`` pixels (at most S / 4),
+   each run alone (in
+   batches: memory grows with the batch, not with the photo) and blended with weights that
+   fall linearly towards each tile's edge (normalized by their sum, so no seam).
+3. **Combined**: the detail maps give the high frequencies, the overview the low ones:
+   albedo = detail x up(overview) / up(down(detail)) per channel, normals =
+   normalize(detail - up(down(detail)) + up(overview)), where down is an area average to the
+   overview's size and up is bilinear. So the maps, averaged down to the overview's size,
+   agree with the overview.
+
+Why not the tiles alone: a tile sees the texture magnified (output side / S times), a scale
+the networks were not trained on, and each tile's albedo comes out relative to its own content
+(mean about 0.5 per tile), which would make tiles of a dark and a light region equally bright.
+The combination keeps the tiles' fine detail and the overview's large-scale values.
+
+Conventions: photos (H, W, 3) linear RGB; maps (H, W, 3) float32, albedo relative (the
+overview's scale), normals unit tangent-space vectors (docs/conventions.md).
+"""
+
+import math
+
+import numpy as np
+import torch
+from torch.nn import functional
+
+from train.networks import decode_normal
+from train.photos import resize
+
+MAX_SIDE = 2048
+"""Default longest side of the full-resolution maps (px)."""
+TILE_OVERLAP = 64
+"""Overlap of neighbouring detail tiles (px)."""
+TILE_BATCH = 4
+"""Detail tiles run together."""
+
+
+def full_resolution_maps(net, linear_photo, max_side=MAX_SIDE, overlap=TILE_OVERLAP):
+    """(albedo, normal), each (H', W', 3) float32, of ``linear_photo`` (H, W, 3) by the
+    module docstring's rule; (H', W') is (H, W) scaled so that the longer side is at most
+    ``max_side``."""
+    config = net.config
+    height, width = linear_photo.shape[:2]
+    scale = min(1.0, max_side / max(height, width))
+    out_height, out_width = max(1, round(height * scale)), max(1, round(width * scale))
+    photo = np.clip(resize(linear_photo, out_height, out_width), 0.0, 1.0)
+    with torch.no_grad():
+        overview = map_networks(net, overview_photo(photo, config.input_size,
+                                                     2 ** config.levels)[None])
+        detail = tiled_map_networks(net, photo, config.input_size, overlap)
+        albedo, normal = combine(overview, detail)
+    return tuple(np.ascontiguousarray(m[0].permute(1, 2, 0).cpu().numpy()) for m in (albedo, normal))
+
+
+def overview_photo(photo, input_size, multiple):
+    """(H, W, 3) -> (h, w, 3): the shorter side ``input_size``, the longer one in proportion,
+    rounded to a multiple of ``multiple``."""
+    height, width = photo.shape[:2]
+    scale = input_size / min(height, width)
+    sides = [max(multiple, round(side * scale / multiple) * multiple) for side in (height, width)]
+    return np.clip(resize(photo, *sides), 0.0, 1.0)
+
+
+def map_networks(net, photos):
+    """(B, H, W, 3) photos, sides multiples of 2^levels -> (albedo, normal), each
+    (B, 3, H, W) on the CPU."""
+    device = next(net.parameters()).device
+    image = torch.as_tensor(np.ascontiguousarray(photos.transpose(0, 3, 1, 2))).to(device)
+    return net.albedo(image).cpu(), decode_normal(net.normal(image)).cpu()
+
+
+def tile_starts(length, tile, overlap):
+    """First pixels of the tiles covering [0, length) with at least ``overlap`` pixels shared
+    by neighbours, spread evenly; ``length`` >= ``tile`` > ``overlap``."""
+    if not length >= tile > overlap >= 0:
+        raise ValueError(f"no tiling of {length} px by {tile} px tiles overlapping {overlap} px")
+    count = 1 if length <= tile else math.ceil((length - overlap) / (tile - overlap))
+    if count == 1:
+        return [0]
+    return [round(i * (length - tile) / (count - 1)) for i in range(count)]
+
+
+def tile_weight(tile, overlap):
+    """(tile,) blending weights: rising linearly over ``overlap`` pixels from each edge to 1,
+    never 0 (so a photo border, covered by one tile, keeps its pixels)."""
+    ramp = np.minimum(np.arange(1, tile + 1), np.arange(tile, 0, -1)) / (overlap + 1)
+    return np.minimum(ramp, 1.0).astype(np.float32)
+
+
+def tiled_map_networks(net, photo, tile, overlap):
+    """(albedo, normal), each (1, 3, H, W), of the (H, W, 3) photo run as overlapping
+    ``tile`` x ``tile`` tiles, blended (a photo side under ``tile`` is padded by reflection
+    and the padding cut off again)."""
+    overlap = min(overlap, tile // 4)
+    height, width = photo.shape[:2]
+    padded = np.pad(photo, ((0, max(0, tile - height)), (0, max(0, tile - width)), (0, 0)),
+                    mode="reflect")
+    rows, columns = (tile_starts(side, tile, overlap) for side in padded.shape[:2])
+    weight = torch.as_tensor(np.outer(tile_weight(tile, overlap), tile_weight(tile, overlap)))
+    total = torch.zeros(padded.shape[:2])
+    sums = [torch.zeros((3,) + padded.shape[:2]) for _ in range(2)]
+    corners = [(top, left) for top in rows for left in columns]
+    for first in range(0, len(corners), TILE_BATCH):
+        batch = corners[first:first + TILE_BATCH]
+        images = np.stack([padded[t:t + tile, l:l + tile] for t, l in batch])
+        albedo, normal = map_networks(net, images)
+        for i, (top, left) in enumerate(batch):
+            window = (slice(top, top + tile), slice(left, left + tile))
+            total[window] += weight
+            for accumulated, tiles in zip(sums, (albedo, normal)):
+                accumulated[(slice(None),) + window] += weight * tiles[i]
+    albedo = (sums[0] / total)[:, :height, :width]
+    normal = functional.normalize(sums[1], dim=0)[:, :height, :width]
+    return albedo[None], normal[None]
+
+
+def combine(overview, detail):
+    """(albedo, normal) at the detail's size, with the detail's high frequencies and the
+    overview's low ones (module docstring, step 3)."""
+    size = detail[0].shape[2:]
+    low = [functional.interpolate(functional.interpolate(d, size=o.shape[2:], mode="area"),
+                                  size=size, mode="bilinear", align_corners=False)
+           for d, o in zip(detail, overview)]
+    up = [functional.interpolate(o, size=size, mode="bilinear", align_corners=False)
+          for o in overview]
+    albedo = detail[0] * up[0] / low[0].clamp(min=1e-4)
+    normal = detail[1] - low[1] + up[1]
+    normal = torch.cat([normal[:, :2], normal[:, 2:].clamp(min=0.05)], 1)
+    return albedo, functional.normalize(normal, dim=1)
