@@ -93,3 +93,16 @@ def test_every_shared_material_loads():
         assert svbrdf.albedo.shape[:2] == svbrdf.normal.shape[:2]
         assert ALPHA_RANGE[0] <= svbrdf.roughness <= ALPHA_RANGE[1]
         assert np.all(svbrdf.specular > 0) and np.all(svbrdf.albedo >= MIN_DIFFUSE_ALBEDO)
+
+
+def test_unrecognized_images_are_reported_unless_material_json_names_the_maps(tmp_path, caplog):
+    folder = make_material(tmp_path / "m", np.full((8, 8, 3), 0.5))
+    write_png(folder / "relit-park.png", np.zeros((8, 8, 3)))
+    with caplog.at_level("WARNING"):
+        load_material(folder)
+    assert "relit-park.png: unrecognized map name, ignored" in caplog.text
+    caplog.clear()
+    (folder / "material.json").write_text(json.dumps({"albedo": "m_albedo.png"}))
+    with caplog.at_level("WARNING"):
+        load_material(folder)
+    assert caplog.text == ""

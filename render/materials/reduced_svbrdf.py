@@ -12,7 +12,9 @@ with C the base color (sRGB-decoded unless it is an EXR or declared linear), m t
 (default 0) and r the perceptual roughness (default 0.5). Normals are tangent-space unit
 vectors, x right, y up in the image, z out of the surface (OpenGL convention); DirectX maps
 (``*_dx`` names or ``"normal_convention": "directx"``) have their y flipped. A missing normal
-map means a flat surface, (0, 0, 1).
+map means a flat surface, (0, 0, 1). Images whose names say no role are reported and ignored,
+silently where material.json names the albedo map (a folder that says which files are maps,
+such as sa-estimate's, with its pictures beside them).
 
 ``material.json`` keys (all optional):
     albedo, normal, roughness, metallic, arm, glossiness: a file name in the folder (or null to
@@ -161,8 +163,9 @@ def _assign_maps(folder, spec):
             files[role] = path
     if "albedo" not in files and "albedo" not in spec and len(unrecognized) == 1:
         files["albedo"] = unrecognized.pop()
-    for path in unrecognized:
-        log.warning("%s: unrecognized map name, ignored", path)
+    if "albedo" not in spec:  # where material.json names the maps, other images are no maps
+        for path in unrecognized:
+            log.warning("%s: unrecognized map name, ignored", path)
     for role in MAP_ROLES:
         value = spec.get(role)
         if isinstance(value, str):
