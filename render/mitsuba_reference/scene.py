@@ -5,7 +5,6 @@ are HDR linear RGB radiance, (H, W, 3) float32, row 0 at the top, in texture spa
 (row, col) is the radiance leaving texel (row, col) toward the view direction.
 """
 
-import hashlib
 import tempfile
 from pathlib import Path
 
@@ -55,7 +54,15 @@ def matrix_text(matrix):
 
 
 class PlanarSampleRenderer:
-    """Mitsuba renderer of planar samples; reuses the texture files it has already written."""
+    """Mitsuba renderer of planar samples.
+
+    Speed (docs/performance.md): a scene is built once per image size, sample count and probe
+    size, and each further render only updates its parameters (textures, probe, transforms,
+    specular albedo and roughness, all opaque to Dr.Jit), so Dr.Jit reuses the compiled kernels
+    instead of tracing and compiling new ones for every image. Images larger than the lane
+    budget are rendered in strips of rows (the film's crop window, updated the same way); the
+    result is the same as a scene built from scratch for every strip.
+    """
 
     def __init__(self, variant="llvm_ad_rgb", spp=1024, sampler=DEFAULT_SAMPLER, threads=None):
         self.mi = load_mitsuba(variant, threads)
@@ -63,40 +70,58 @@ class PlanarSampleRenderer:
         self.sampler = sampler
         self.lane_budget = LANE_BUDGET["cuda" if variant.startswith("cuda") else "llvm"]
         self._workdir = tempfile.TemporaryDirectory(prefix="sa-svbrdf-scene-")
-        self._written = {}
+        self._scenes = {}
 
-    def _exr_file(self, pixels):
-        """Write ``pixels`` once (keyed by content) as an EXR file for Mitsuba; its path."""
-        pixels = np.ascontiguousarray(pixels, np.float32)
-        key = (pixels.shape, hashlib.sha1(pixels.data).hexdigest())
-        if key not in self._written:
-            path = Path(self._workdir.name) / f"{len(self._written)}.exr"
-            write_exr(path, pixels)
-            self._written[key] = path
-        return str(self._written[key])
+    def _scene(self, svbrdf, probe, rotation_deg, view, spp, rows_per_strip):
+        """(scene, its traversed parameters) for images of ``svbrdf``'s size at ``spp``,
+        ``probe``'s size and strips of ``rows_per_strip`` rows; built on first use from these
+        inputs (so that a parameter that render() failed to update would show)."""
+        height, width = svbrdf.albedo.shape[:2]
+        key = (height, width, probe.radiance.shape, spp, rows_per_strip)
+        if key not in self._scenes:
+            files = {}
+            for name, pixels in (("albedo", svbrdf.albedo), ("normal", svbrdf.normal),
+                                 ("probe", probe.radiance)):
+                files[name] = str(Path(self._workdir.name) / f"{len(self._scenes)}-{name}.exr")
+                write_exr(files[name], pixels)
+            scene = self.mi.load_file(
+                str(SCENE_FILE), spp=str(spp), sampler=self.sampler, width=str(width),
+                height=str(height), crop_x="0", crop_y="0", crop_width=str(width),
+                crop_height=str(rows_per_strip), aspect=repr(height / width),
+                camera=matrix_text(camera_to_world(view)),
+                probe_to_world=matrix_text(probe_to_world(rotation_deg)),
+                specular=" ".join(repr(float(v)) for v in svbrdf.specular),
+                alpha=repr(float(svbrdf.roughness)), **files)
+            self._scenes[key] = (scene, self.mi.traverse(scene))
+        return self._scenes[key]
 
     def render(self, svbrdf, probe, rotation_deg=0.0, view=(0.0, 0.0, 1.0), seed=0, spp=None):
         """HDR radiance (H, W, 3) of ``svbrdf`` under ``probe`` rotated by ``rotation_deg``."""
+        mi = self.mi
         spp = spp or self.spp
         height, width = svbrdf.albedo.shape[:2]
-        params = dict(
-            spp=str(spp), sampler=self.sampler, width=str(width), height=str(height),
-            crop_x="0", crop_width=str(width), aspect=repr(height / width),
-            camera=matrix_text(camera_to_world(view)),
-            probe_to_world=matrix_text(probe_to_world(rotation_deg)),
-            probe=self._exr_file(probe.radiance),
-            # Texture rows are flipped: Mitsuba's texture v grows with world +y, while our
-            # row 0 is the top (largest y) of the sample.
-            albedo=self._exr_file(np.flipud(svbrdf.albedo)),
-            normal=self._exr_file(np.flipud(svbrdf.normal)),
-            specular=" ".join(repr(float(v)) for v in svbrdf.specular),
-            alpha=repr(float(svbrdf.roughness)))
-        rows_per_strip = max(1, self.lane_budget // (width * spp))
+        rows_per_strip = min(height, max(1, self.lane_budget // (width * spp)))
+        scene, params = self._scene(svbrdf, probe, rotation_deg, view, spp, rows_per_strip)
+        # Texture rows are flipped: Mitsuba's texture v grows with world +y, while our row 0
+        # is the top (largest y) of the sample.
+        params["sample.bsdf.albedo.data"] = mi.TensorXf(np.ascontiguousarray(
+            np.flipud(svbrdf.albedo), np.float32))
+        params["sample.bsdf.normal.data"] = mi.TensorXf(np.ascontiguousarray(
+            np.flipud(svbrdf.normal), np.float32))
+        params["sample.bsdf.specular"] = mi.Color3f(*(float(v) for v in svbrdf.specular))
+        params["sample.bsdf.alpha"] = mi.Float(float(svbrdf.roughness))
+        # The envmap stores its image with one wrapped column on each side.
+        radiance = np.asarray(probe.radiance, np.float32)
+        params["probe.data"] = mi.TensorXf(np.ascontiguousarray(np.concatenate(
+            [radiance[:, -1:], radiance, radiance[:, :1]], axis=1)))
+        params["probe.to_world"] = mi.AffineTransform4f(probe_to_world(rotation_deg))
+        params["sensor.to_world"] = mi.AffineTransform4f(camera_to_world(view))
         strips = []
         for index, top in enumerate(range(0, height, rows_per_strip)):
             rows = min(rows_per_strip, height - top)
-            scene = self.mi.load_file(str(SCENE_FILE), crop_y=str(top), crop_height=str(rows),
-                                      **params)
+            params["sensor.film.crop_offset"] = mi.ScalarPoint2u(0, top)
+            params["sensor.film.crop_size"] = mi.ScalarVector2u(width, rows)
+            params.update()
             strip_seed = (seed * 1_000_003 + index) % (1 << 32)
-            strips.append(np.array(self.mi.render(scene, seed=strip_seed), dtype=np.float32))
+            strips.append(np.array(mi.render(scene, seed=strip_seed), dtype=np.float32))
         return np.concatenate(strips, axis=0)

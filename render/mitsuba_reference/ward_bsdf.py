@@ -34,6 +34,7 @@ class WardSVBRDF(mi.BSDF):
         self.normal = props.get_unbounded_texture("normal")
         self.specular = mi.Color3f(props["specular"])
         self.alpha = mi.Float(props["alpha"])
+        dr.make_opaque(self.specular, self.alpha)  # new values reuse the compiled kernel
         diffuse = (mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
                    | mi.BSDFFlags.SpatiallyVarying)
         glossy = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
@@ -117,6 +118,9 @@ class WardSVBRDF(mi.BSDF):
         callback.put("alpha", self.alpha, mi.ParamFlags.NonDifferentiable)
         callback.put("albedo", self.albedo, mi.ParamFlags.NonDifferentiable)
         callback.put("normal", self.normal, mi.ParamFlags.NonDifferentiable)
+
+    def parameters_changed(self, keys):
+        dr.make_opaque(self.specular, self.alpha)
 
     def to_string(self):
         return f"WardSVBRDF[specular={self.specular}, alpha={self.alpha}]"
