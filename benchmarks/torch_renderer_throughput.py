@@ -2,10 +2,10 @@
 over Mitsuba rendering the same images to the same error, in the same run. Prints JSON.
 
     python benchmarks/torch_renderer_throughput.py [--batch 16] [--size 256] [--shared]
-        [--device cpu|cuda] [--compare 4] [--reference-spp 4096]
+        [--device cpu|cuda] [--compare 4] [--reference-spp 4096] [--roughness ALPHA]
 
-The batch draws materials, probes, rotations and roughness (log-uniform in [0.02, 1]) at
-random. For the first ``--compare`` images, a Mitsuba render at ``--reference-spp`` is the
+The batch draws materials, probes, rotations and roughness (log-uniform in [0.02, 1], or the
+one given) at random. For the first ``--compare`` images, a Mitsuba render at ``--reference-spp`` is the
 reference; the torch error is the worst PSNR (exposed, clamped images) against it. Mitsuba
 then renders the same images at 16, 32, 64, ... spp until its worst PSNR against the same
 reference reaches the torch one; its time per image at that count is compared with the torch
@@ -46,7 +46,10 @@ def worst_psnr(images, references):
 @click.option("--reference-spp", default=4096, show_default=True)
 @click.option("--shared", is_flag=True, help="Use ../shared/data instead of bundled data.")
 @click.option("--seed", default=0, show_default=True)
-def main(batch, size, repeats, device, compare, reference_spp, shared, seed):
+@click.option("--roughness", type=float, default=None,
+              help="One Ward alpha for the whole batch (time per roughness); default: random.")
+def main(batch, size, repeats, device, compare, reference_spp, shared, seed, roughness):
+    fixed = roughness
     probe_dir, material_dir = ((SHARED / "probes", SHARED / "svbrdfs") if shared
                                else (REPO / "probes", REPO / "scenes" / "materials"))
     probes = [load_probe(p) for p in find_probes(probe_dir)]
@@ -56,7 +59,8 @@ def main(batch, size, repeats, device, compare, reference_spp, shared, seed):
     maps = [square_crop(materials[i], size) for i in chosen]
     probe_index = rng.integers(0, len(probes), batch)
     rotation = rng.uniform(0, 360, batch)
-    roughness = np.exp(rng.uniform(np.log(0.02), 0, batch))
+    roughness = (np.exp(rng.uniform(np.log(0.02), 0, batch)) if roughness is None
+                 else np.full(batch, roughness))
     specular = np.stack([materials[i].specular for i in chosen])
 
     bank = ProbeBank([p.radiance for p in probes], device=device)
@@ -82,6 +86,7 @@ def main(batch, size, repeats, device, compare, reference_spp, shared, seed):
     result = dict(machine=platform.processor() or platform.machine(), device=device,
                   torch_threads=torch.get_num_threads(), batch=batch, size=size,
                   data="shared" if shared else "bundled",
+                  roughness="log-uniform [0.02, 1]" if fixed is None else fixed,
                   torch_seconds_per_batch=round(torch_seconds, 4),
                   torch_images_per_second=round(batch / torch_seconds, 2))
 

@@ -1,0 +1,96 @@
+"""Benchmark of a training step's parts: a labeled minibatch (rendered on the fly from labeled
+maps by the torch renderer, as the shipped models were trained) against a self-augmented one
+(provisional prediction of unlabeled photos, then the same renderer), each followed by the same
+optimizer step, in one run. Prints JSON (median milliseconds over --repeats steps).
+
+    python benchmarks/minibatch_cost.py [--network compact] [--batch 16] [--repeats 5]
+
+Data: the bundled material sets (labeled) and photos (unlabeled), the bundled probes. The
+compact network starts from the shipped general model, so that its provisional predictions are
+those of a trained network: an untrained one predicts normals spread over the hemisphere, which
+the torch renderer's tables must then cover (docs/performance.md).
+"""
+
+import json
+import os
+import platform
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import click
+import numpy as np
+import torch
+
+from train.losses import losses
+from train.model_files import shipped_model_path
+from train.networks import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig
+from train.self_augmentation import random_lightings, self_augmented_batch
+from train.trainer import Run, TrainConfig
+
+REPO = Path(__file__).resolve().parent.parent
+NETWORKS = {"compact": COMPACT_CONFIG, "small": SMALL_CPU_CONFIG, "paper": NetworkConfig()}
+
+
+def milliseconds(function):
+    start = time.perf_counter()
+    result = function()
+    return result, 1000.0 * (time.perf_counter() - start)
+
+
+@click.command()
+@click.option("--network", type=click.Choice(sorted(NETWORKS)), default="compact",
+              show_default=True)
+@click.option("--batch", default=16, show_default=True)
+@click.option("--repeats", default=5, show_default=True)
+def main(network, batch, repeats):
+    config = NETWORKS[network]
+    with tempfile.TemporaryDirectory() as out:
+        run = Run(TrainConfig(out=out, probes=str(REPO / "probes"),
+                              labeled_maps=str(REPO / "scenes" / "materials"),
+                              unlabeled=str(REPO / "scenes" / "photos"), network=config,
+                              init_from=(str(shipped_model_path("general"))
+                                         if network == "compact" else None),
+                              batch_size=batch, render_size=max(2 * config.input_size, 128),
+                              epoch_samples=batch))
+        rng = np.random.default_rng(0)
+
+        def step(minibatch):
+            run.net.train()
+            prediction = run.net(minibatch["image"])
+            total = losses(prediction, minibatch)["total"]
+            run.optimizer.zero_grad(set_to_none=True)
+            total.backward()
+            run.optimizer.step()
+
+        def self_augmented():
+            chosen = rng.choice(run.unlabeled_indices, batch)
+            photos = torch.as_tensor(np.stack([run.unlabeled.image(i) for i in chosen]))
+            return self_augmented_batch(run.net, photos, run.probes,
+                                        random_lightings(rng, batch, run.augmentation_probes),
+                                        run.log_specular_range)
+
+        times = {"labeled_minibatch": [], "self_augmented_minibatch": [], "optimizer_step": []}
+        step(run.maps.batch(rng, batch))  # warm-up: fills the probe bank's caches
+        for _ in range(repeats):
+            labeled, ms = milliseconds(lambda: run.maps.batch(rng, batch))
+            times["labeled_minibatch"].append(ms)
+            times["optimizer_step"].append(milliseconds(lambda: step(labeled))[1])
+            augmented, ms = milliseconds(self_augmented)
+            times["self_augmented_minibatch"].append(ms)
+            step(augmented)
+    median = {name: round(statistics.median(values), 1) for name, values in times.items()}
+    labeled_step = median["labeled_minibatch"] + median["optimizer_step"]
+    augmented_step = median["self_augmented_minibatch"] + median["optimizer_step"]
+    print(json.dumps({"machine": f"{platform.machine()}, {os.cpu_count()} cores",
+                      "torch_threads": torch.get_num_threads(), "network": network,
+                      "input": config.input_size, "batch": batch, "median_ms": median,
+                      "labeled_step_ms": round(labeled_step, 1),
+                      "self_augmented_step_ms": round(augmented_step, 1),
+                      "self_augmented_over_labeled": round(augmented_step / labeled_step, 3)},
+                     indent=2))
+
+
+if __name__ == "__main__":
+    main()
