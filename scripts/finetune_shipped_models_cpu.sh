@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
-# Fine-tunes shipped class networks on a CPU (models/README.md, "stage 3"): one network of
-# the three at a time (NETWORK: homogeneous or albedo), starting from the shipped file, with
-# the relit loss (sa-train --relit-loss-weight) added to the parameter losses; labeled
-# minibatches rendered on the fly from 200 procedural sets of the class (make-materials seeds
-# 0, 2, 3, 4; seed 1 makes the held-out sets) under the 26 training probes. Re-run after an
-# interruption, it resumes each run from its newest checkpoint.
+# Fine-tunes shipped networks on a CPU (models/README.md, "stage 3"): one network of the
+# three at a time (NETWORK: homogeneous or albedo), starting from the shipped file, with the
+# relit loss (sa-train --relit-loss-weight) added to the parameter losses; labeled minibatches
+# rendered on the fly under the 26 training probes from 200 procedural sets of the class
+# (make-materials seeds 0, 2, 3, 4; seed 1 makes the held-out sets), or for `general` from the
+# general network's sets (seeds 0, 2, 3 of each class and the real sets in REAL_SETS). Re-run
+# after an interruption, it resumes each run from its newest checkpoint.
 #
 # Environment: NETWORK (default homogeneous), EPOCHS (of 200 steps, default 10),
-# RELIT_WEIGHT (default 300), LEARNING_RATE (default 0.0005).
+# RELIT_WEIGHT (default 300), LEARNING_RATE (default 0.0005), REAL_SETS (general only: a
+# folder of the real sets the card lists).
 #
 #   bash scripts/finetune_shipped_models_cpu.sh WORK PROBES_TRAIN OUT_DIR CLASS...
 set -euo pipefail
@@ -16,15 +18,28 @@ shift 3
 NETWORK=${NETWORK:-homogeneous} EPOCHS=${EPOCHS:-10} RELIT_WEIGHT=${RELIT_WEIGHT:-300}
 LEARNING_RATE=${LEARNING_RATE:-0.0005} BIN=${BIN:-.venv/bin}
 mkdir -p "$OUT_DIR"
-for class in "$@"; do
-    mkdir -p "$WORK/maps/$class"
-    for seed in 0 2 3 4; do
+link_sets() {  # link_sets CLASS SEEDS...: make the sets if missing, link them into the maps
+    local class=$1
+    shift
+    for seed in "$@"; do
         if [ ! -d "$WORK/sets/$class-$seed" ]; then
             "$BIN/make-materials" --class "$class" --count 50 --seed "$seed" --resolution 512 \
                 --out "$WORK/sets/$class-$seed"
         fi
-        for set in "$WORK/sets/$class-$seed"/*/; do ln -sfn "$(realpath "$set")" "$WORK/maps/$class/"; done
+        for set in "$WORK/sets/$class-$seed"/*/; do ln -sfn "$(realpath "$set")" "$MAPS/"; done
     done
+}
+for class in "$@"; do
+    MAPS="$WORK/maps/$class"
+    mkdir -p "$MAPS"
+    if [ "$class" = general ]; then
+        for each in wood plastic metal; do link_sets "$each" 0 2 3; done
+        for set in "${REAL_SETS:?REAL_SETS is needed for general}"/*/; do
+            ln -sfn "$(realpath "$set")" "$MAPS/"
+        done
+    else
+        link_sets "$class" 0 2 3 4
+    fi
     run="$WORK/runs/$class-$NETWORK"
     "$BIN/sa-train" --init-from "models/svbrdf-$class.safetensors" --train-networks "$NETWORK" \
         --relit-loss-weight "$RELIT_WEIGHT" --relit-loss-size 64 \
