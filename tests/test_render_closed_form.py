@@ -96,7 +96,7 @@ def test_a_reused_renderer_renders_what_a_fresh_one_does(mi):
                              .astype(np.float32), rng.uniform(0.02, 0.5, 3).astype(np.float32),
                              roughness)
 
-    first, second = material("a", 0.05), material("b", 0.4)
+    first, second = material("a", 0.3), material("b", 0.6)  # one sample split: one scene
     reused = PlanarSampleRenderer("llvm_ad_rgb", spp=64)
     reused.lane_budget = 64 * 16 * 5  # strips of 5 rows, the last one 4
     reused.render(first, probes[0], 10.0, view=(0.0, 0.0, 1.0), seed=1)
