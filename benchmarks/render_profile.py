@@ -52,6 +52,7 @@ def main(spp, size, shared):
                               material.roughness)
     probe = load_probe(find_probes(root / "probes" if root else REPO / "probes")[0])
     renderer = PlanarSampleRenderer("llvm_ad_rgb", spp=spp)
+    renderer.mi.set_log_level(renderer.mi.LogLevel.Error)  # warnings would go to stdout, into the JSON
     mi = renderer.mi
     phases = {}
     with tempfile.TemporaryDirectory() as work:

@@ -45,6 +45,7 @@ def main(spp, size, pairs, sampler, shared, reference):
     probes = find_probes(root / "probes" if root else REPO / "probes")
     rng = np.random.default_rng(0)
     renderer = PlanarSampleRenderer("llvm_ad_rgb", spp=spp, sampler=sampler)
+    renderer.mi.set_log_level(renderer.mi.LogLevel.Error)  # warnings would go to stdout, into the JSON
     warm_up = resample(load_material(materials[0]), size)  # compiles the kernels of this size
     renderer.render(type(warm_up)(warm_up.name, warm_up.albedo[:size, :size],
                                   warm_up.normal[:size, :size], warm_up.specular,
