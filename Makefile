@@ -34,7 +34,7 @@ demo: setup
 	$(BIN)/sa-estimate scenes/photos/brick-reference-01.jpg --model $(DEMO_OUT)/train \
 		--out $(DEMO_OUT)/estimate-demo-run --probe probes/env-studio.exr
 	$(BIN)/sa-estimate scenes/photos/brick-reference-01.jpg --class general \
-		--out $(DEMO_OUT)/estimate --probe probes/env-studio.exr
+		--out $(DEMO_OUT)/estimate
 	@echo "Estimate with the shipped general network: $(DEMO_OUT)/estimate/report.html"
 	$(BIN)/sa-evaluate --class general --materials scenes/materials --probes probes \
 		--samples 4 --relights 2 --out $(DEMO_OUT)/evaluate
