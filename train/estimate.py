@@ -93,7 +93,7 @@ def run(cfg):
         raise ValueError(f"max_side {cfg.max_side} is below 16 px")
     net = load_network(cfg.model, torch.device(cfg.device))
     size = net.config.input_size
-    inputs = [(read_photo(path, size), read_linear_photo(path)) for path in cfg.photos]
+    inputs = [read_photo(path, size) for path in cfg.photos]  # checks every photo first
     stems = [Path(path).stem for path in cfg.photos]
     if len(set(stems)) != len(stems):
         raise InputError(cfg.photos[0], "two photos share a file name stem (output folders)")
@@ -102,7 +102,8 @@ def run(cfg):
         raise InputError(cfg.probes[0], "two probes share a file name stem (relit-<stem>.png)")
     bank = ProbeBank([probe.radiance for probe in probes])  # relit images render on the CPU
     reports = []
-    for path, (photo, linear_photo), stem in zip(cfg.photos, inputs, stems):
+    for path, photo, stem in zip(cfg.photos, inputs, stems):
+        linear_photo = read_linear_photo(path)  # read again: one whole photo in memory at a time
         start = time.perf_counter()
         svbrdf = estimate(net, photo)
         milliseconds = 1000.0 * (time.perf_counter() - start)

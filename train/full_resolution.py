@@ -58,7 +58,7 @@ def full_resolution_maps(net, linear_photo, max_side=MAX_SIDE, overlap=TILE_OVER
                                                      2 ** config.levels)[None])
         detail = tiled_map_networks(net, photo, config.input_size, overlap)
         albedo, normal = combine(overview, detail)
-    return tuple(np.ascontiguousarray(m[0].permute(1, 2, 0).cpu().numpy()) for m in (albedo, normal))
+    return tuple(np.ascontiguousarray(m[0].permute(1, 2, 0).numpy()) for m in (albedo, normal))
 
 
 def overview_photo(photo, input_size, multiple):
