@@ -49,8 +49,7 @@ def main(folder, out, spp):
              str(width), str(height), str(spp)], capture_output=True, text=True)
         if result.returncode != 0 or not render.is_file():
             sys.exit(f"Blender failed:\n{result.stdout[-2000:]}\n{result.stderr[-2000:]}")
-        scale = float(np.max(estimate.albedo) / np.max(gltf_parameters(estimate)["base_color"]))
-        blender = read_image(render)[..., :3] * scale
+        blender = read_image(render)[..., :3] * gltf_parameters(estimate)["scale"]
     exposed_mitsuba, exposure = expose_numpy(mitsuba)
     exposed_blender = np.clip(blender * exposure, 0.0, 1.0)
     difference = np.clip(4.0 * np.abs(exposed_blender - exposed_mitsuba), 0.0, 1.0)

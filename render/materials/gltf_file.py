@@ -45,9 +45,10 @@ _INDICES = np.array([0, 1, 2, 0, 2, 3], np.uint16)
 
 def gltf_parameters(svbrdf):
     """The glTF values of the module docstring's mapping: dict of base_color (H, W, 3) linear
-    in [0, 1], specular_color_factor (3,), roughness_factor."""
+    in [0, 1], specular_color_factor (3,), roughness_factor, and scale, the common factor the
+    albedos were divided by."""
     scale = max(1.0, float(svbrdf.albedo.max()), float(np.max(svbrdf.specular)))
-    return {"base_color": np.clip(svbrdf.albedo / scale, 0.0, 1.0),
+    return {"scale": scale, "base_color": np.clip(svbrdf.albedo / scale, 0.0, 1.0),
             "specular_color_factor": (np.asarray(svbrdf.specular, np.float64) / scale
                                       / DIELECTRIC_F0),
             "roughness_factor": float(np.sqrt(svbrdf.roughness))}
