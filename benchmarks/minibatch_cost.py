@@ -23,7 +23,6 @@ import click
 import numpy as np
 import torch
 
-from train.losses import losses
 from train.model_files import shipped_model_path
 from train.networks import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig
 from train.self_augmentation import random_lightings, self_augmented_batch
@@ -56,14 +55,6 @@ def main(network, batch, repeats):
                               epoch_samples=batch))
         rng = np.random.default_rng(0)
 
-        def step(minibatch):
-            run.net.train()
-            prediction = run.net(minibatch["image"])
-            total = losses(prediction, minibatch)["total"]
-            run.optimizer.zero_grad(set_to_none=True)
-            total.backward()
-            run.optimizer.step()
-
         def self_augmented():
             chosen = rng.choice(run.unlabeled_indices, batch)
             photos = torch.as_tensor(np.stack([run.unlabeled.image(i) for i in chosen]))
@@ -72,14 +63,14 @@ def main(network, batch, repeats):
                                         run.log_specular_range)
 
         times = {"labeled_minibatch": [], "self_augmented_minibatch": [], "optimizer_step": []}
-        step(run.maps.batch(rng, batch))  # warm-up: fills the probe bank's caches
-        for _ in range(repeats):
+        run.optimize(0, run.maps.batch(rng, batch))  # warm-up: fills the probe bank's caches
+        for index in range(1, repeats + 1):
             labeled, ms = milliseconds(lambda: run.maps.batch(rng, batch))
             times["labeled_minibatch"].append(ms)
-            times["optimizer_step"].append(milliseconds(lambda: step(labeled))[1])
+            times["optimizer_step"].append(milliseconds(lambda: run.optimize(index, labeled))[1])
             augmented, ms = milliseconds(self_augmented)
             times["self_augmented_minibatch"].append(ms)
-            step(augmented)
+            run.optimize(index, augmented)
     median = {name: round(statistics.median(values), 1) for name, values in times.items()}
     labeled_step = median["labeled_minibatch"] + median["optimizer_step"]
     augmented_step = median["self_augmented_minibatch"] + median["optimizer_step"]

@@ -289,7 +289,11 @@ class Run:
 
     def train_step(self, index):
         """One optimizer step; returns the losses of the global minibatch."""
-        batch = self.minibatch(index)
+        return self.optimize(index, self.minibatch(index))
+
+    def optimize(self, index, batch):
+        """The optimizer step ``index`` on ``batch`` (this process's shard of its minibatch);
+        returns the losses of the global minibatch."""
         self.model.train()
         for network in self.frozen:
             network.eval()  # frozen batch norm statistics
