@@ -15,9 +15,10 @@ from pathlib import Path
 import click
 import torch
 
+from render.common.images import resize
 from train.full_resolution import TILE_OVERLAP, full_resolution_maps
 from train.model_files import load_network, shipped_model_path
-from train.photos import read_linear_photo, resize
+from train.photos import read_linear_photo
 
 PHOTO = Path(__file__).resolve().parent.parent / "scenes" / "photos" / "brick-reference-01.jpg"
 

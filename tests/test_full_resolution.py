@@ -6,11 +6,12 @@ import pytest
 import torch
 from torch.nn import functional
 
+from render.common.images import resize
 from tests.conftest import write_png
 from train.estimate import estimate
 from train.full_resolution import full_resolution_maps, tile_starts
 from train.model_files import load_network, shipped_model_path
-from train.photos import read_linear_photo, read_photo, resize
+from train.photos import read_linear_photo, read_photo
 
 BUNDLED_PHOTO = "scenes/photos/brick-reference-01.jpg"
 

@@ -40,7 +40,7 @@ from render.common.atomic_files import atomic_path
 from render.common.color import normal_to_png_bytes, to_png_bytes
 from render.common.errors import InputError, require_output_folder
 from render.common.exposure import expose
-from render.common.images import write_png
+from render.common.images import resize, write_png
 from render.common.probes import load_probe
 from render.materials.gltf_file import write_gltf_file
 from render.materials.reduced_svbrdf import ReducedSVBRDF, resample, write_material
@@ -48,7 +48,7 @@ from render.mitsuba_reference.scene_file import write_scene_file
 from render.torch_renderer.renderer import ProbeBank, render
 from train.full_resolution import MAX_SIDE, full_resolution_maps
 from train.model_files import load_network
-from train.photos import read_linear_photo, read_photo, resize
+from train.photos import read_linear_photo, read_photo
 
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT_PROBES = tuple(str(REPO / "probes" / name) for name in

@@ -33,8 +33,8 @@ import numpy as np
 import torch
 from torch.nn import functional
 
+from render.common.images import resize
 from train.networks import decode_normal
-from train.photos import resize
 
 MAX_SIDE = 2048
 """Default longest side of the full-resolution maps (px)."""

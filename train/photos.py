@@ -20,11 +20,10 @@ before decoding them.
 """
 
 import numpy as np
-from PIL import Image
 
 from render.common.errors import InputError
 from render.common.exposure import expose_numpy
-from render.common.images import is_hdr, read_image
+from render.common.images import is_hdr, read_image, resize
 
 PHOTO_GAMMA = 2.2
 MIN_PHOTO_SIDE = 16
@@ -71,13 +70,3 @@ def centre_square(pixels):
     side = min(height, width)
     top, left = (height - side) // 2, (width - side) // 2
     return pixels[top:top + side, left:left + side]
-
-
-def resize(pixels, height, width):
-    """(H, W, C) float pixels to (height, width, C): box filter down, bilinear up (chosen by
-    the longer side)."""
-    shrinking = max(pixels.shape[:2]) > max(height, width)
-    method = Image.Resampling.BOX if shrinking else Image.Resampling.BILINEAR
-    return np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(pixels[..., c], np.float32))
-                                .resize((width, height), method))
-                     for c in range(pixels.shape[2])], -1)

@@ -3,7 +3,7 @@
 Arrays are float32, layout (H, W, C), row 0 at the top of the picture. 8- and 16-bit files
 (PNG, JPEG, TIFF, BMP) are returned as stored, scaled to [0, 1] (no transfer function is
 applied here); OpenEXR and Radiance ``.hdr`` files are returned as stored (linear radiance or
-linear data). Every failure raises ``InputError`` naming the file, including an image above
+linear data); ``resize`` resamples them. Every failure raises ``InputError`` naming the file, including an image above
 MAX_IMAGE_PIXELS, refused from its header before it is decoded (LDR and OpenEXR files; Radiance
 ``.hdr`` files are decoded by Mitsuba without that check).
 """
@@ -127,3 +127,13 @@ def write_png(path, linear_rgb):
     """Write linear RGB in [0, 1] (H, W, 3) as an 8-bit sRGB PNG, atomically."""
     with atomic_path(path) as tmp:
         Image.fromarray(to_png_bytes(linear_rgb)).save(tmp, format="PNG")
+
+
+def resize(pixels, height, width):
+    """(H, W, C) float pixels to (height, width, C) float32: box filter when the pixel count
+    shrinks (pixel areas averaged), bilinear otherwise."""
+    shrinking = height * width < pixels.shape[0] * pixels.shape[1]
+    method = Image.Resampling.BOX if shrinking else Image.Resampling.BILINEAR
+    return np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(pixels[..., c], np.float32))
+                                .resize((width, height), method))
+                     for c in range(pixels.shape[2])], -1)

@@ -33,12 +33,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 from render.common.atomic_files import write_json
 from render.common.color import srgb_to_linear
 from render.common.errors import InputError, require_folder
-from render.common.images import IMAGE_SUFFIXES, is_hdr, read_image, write_exr
+from render.common.images import IMAGE_SUFFIXES, is_hdr, read_image, resize, write_exr
 from render.materials.map_names import is_directx_normal, map_role
 
 log = logging.getLogger(__name__)
@@ -240,18 +239,12 @@ def resample(svbrdf, short_side):
     """
     height, width = svbrdf.albedo.shape[:2]
     scale = short_side / min(height, width)
-    size = (max(1, round(width * scale)), max(1, round(height * scale)))
-    if size == (width, height):
+    size = (max(1, round(height * scale)), max(1, round(width * scale)))
+    if size == (height, width):
         return svbrdf
-    method = Image.Resampling.BOX if scale < 1 else Image.Resampling.BILINEAR
-
-    def resize(pixels):
-        return np.stack([np.asarray(Image.fromarray(pixels[..., c]).resize(size, method))
-                         for c in range(pixels.shape[2])], -1).astype(np.float32)
-
-    normal = resize(svbrdf.normal)
+    normal = resize(svbrdf.normal, *size)
     normal /= np.linalg.norm(normal, axis=2, keepdims=True)
-    return ReducedSVBRDF(svbrdf.name, resize(svbrdf.albedo), normal, svbrdf.specular,
+    return ReducedSVBRDF(svbrdf.name, resize(svbrdf.albedo, *size), normal, svbrdf.specular,
                          svbrdf.roughness, svbrdf.sources, svbrdf.material_class)
 
 
