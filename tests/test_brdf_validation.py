@@ -39,7 +39,7 @@ def test_search_space_and_patterns():
 
 def test_sphere_tables_match_direct_renders():
     files = find_probes(BUNDLED_PROBES)
-    lightings = np.array([[0, 30.0], [2, 200.0]])
+    lightings = np.array([[0, 30.0], [2, 200.0], [0, 275.0]])  # probe 0 twice: one strip
     levels = np.geomspace(0.1, 1.0, 5)  # broad levels only: the sharp ones cost seconds each
     renderer = SphereRenderer(files, 16, lightings, "cpu", levels)
     gray = [np.repeat(r @ REC709_LUMINANCE, 3).reshape(r.shape)
@@ -87,6 +87,27 @@ def test_pipeline_end_to_end_at_toy_size(tmp_path):
                                       str(tmp_path / "moved"), "--config", "toy",
                                       "--patterns", "2x2x2", "--seed", "1"])
     assert other.exit_code != 0 and "(differing: seed)" in other.output
+
+
+def test_runs_in_parallel_processes_match_runs_in_turn(tmp_path):
+    """--jobs 2 trains the runs in two processes of one thread each: the same runs, each
+    result under its own name (threads change floating-point sums, so not to the last bit)."""
+    results = {}
+    for jobs in (1, 2):
+        out = tmp_path / f"jobs{jobs}"
+        result = CliRunner().invoke(main, ["--probes", str(BUNDLED_PROBES), "--out", str(out),
+                                           "--config", "toy", "--patterns", "2x2x2,3x3x5",
+                                           "--jobs", str(jobs)])
+        assert result.exit_code == 0, result.output
+        results[jobs] = json.loads((out / "results.json").read_text())
+    assert sorted(results[2]) == sorted(results[1]) == [
+        "2x2x2", "2x2x2 SA", "3x3x5", "3x3x5 SA", "dense"]
+    for key, result in results[1].items():
+        assert results[2][key]["pattern"] == result["pattern"]
+        assert results[2][key]["labeled"] == result["labeled"]
+        assert np.isclose(results[2][key]["render_mse"], result["render_mse"], rtol=1e-3), key
+    distinct = {round(np.log10(r["render_mse"]), 3) for r in results[1].values()}
+    assert len(distinct) == len(results[1])  # a mix-up of names would show
 
 
 def test_ratio_table_at_toy_size(tmp_path):

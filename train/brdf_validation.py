@@ -28,8 +28,10 @@ import csv
 import dataclasses
 import json
 import logging
+import multiprocessing
 import time
 import zlib
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -52,7 +54,7 @@ from train.networks import NetworkConfig, HomogeneousNet  # noqa: E402
 from train.optimization import OptimizerConfig, make_optimizer  # noqa: E402
 
 log = logging.getLogger(__name__)
-MAY_CHANGE = ("out", "device")
+MAY_CHANGE = ("out", "device", "jobs")
 """Options a resumed validation may change (render.common.resume)."""
 
 ALPHA_LEVELS = np.geomspace(0.02, 1.0, 29)
@@ -93,6 +95,11 @@ class ValidationConfig:
     space exactly, fewer interpolate it (the toy configuration)."""
     seed: int = 0
     device: str = "cpu"
+    jobs: int = 1
+    """Runs trained at once, each in a process of its own with an equal share of torch's
+    threads. The small networks use two threads poorly, so on a CPU two one-thread runs at once
+    finish sooner than two two-thread runs in turn; results may differ in the last digits
+    (threads change the order of floating-point sums)."""
 
 
 CONFIGURATIONS = {
@@ -126,16 +133,28 @@ class SphereRenderer:
         probes = ProbeBank(gray, device=device)
         normal, self.mask = sphere_normals(size, device=device)
         count = len(lightings)
-        normal = normal.expand(count, 3, size, size)
-        probe_index = torch.as_tensor(lightings[:, 0], device=device).long()
-        rotation = torch.as_tensor(lightings[:, 1], dtype=torch.float32, device=device)
-        ones = torch.ones(count, 3, device=device)
-        self.diffuse = render(torch.ones(count, 3, size, size, device=device), normal,
-                              ones * 0, ones[:, 0], probes, probe_index, rotation)[:, :1]
-        self.specular = torch.stack([
-            render(torch.zeros(count, 3, size, size, device=device), normal, ones,
-                   ones[:, 0] * float(alpha), probes, probe_index, rotation)[:, :1]
-            for alpha in self.alpha_levels])  # (levels, K, 1, S, S)
+        self.diffuse = torch.empty(count, 1, size, size, device=device)
+        self.specular = torch.empty(len(self.alpha_levels), count, 1, size, size, device=device)
+        # Seen from +z, a probe turned by r about +z lights a sphere as the unturned probe
+        # lights the sphere turned by -r. So each probe is rendered once, with the turned
+        # spheres of all its lightings side by side in one image: the renderer builds its
+        # tables once per probe and level, not once per lighting.
+        probe_of_lighting = lightings[:, 0].astype(int)
+        for probe in np.unique(probe_of_lighting):
+            members = np.flatnonzero(probe_of_lighting == probe)
+            turned = turned_spheres(normal, -lightings[members, 1])
+            strip = turned.permute(1, 2, 0, 3).reshape(1, 3, size, len(members) * size)
+            ones, index = torch.ones(1, 3, device=device), [int(probe)]
+
+            def spheres(image):  # (1, 3, S, m S) -> (m, 1, S, S), the members' spheres
+                return image[0, :1].reshape(1, size, len(members), size).permute(2, 0, 1, 3)
+
+            self.diffuse[members] = spheres(render(torch.ones_like(strip), strip, ones * 0,
+                                                   ones[:, 0], probes, index))
+            for level, alpha in enumerate(self.alpha_levels):
+                self.specular[level, members] = spheres(render(
+                    torch.zeros_like(strip), strip, ones, ones[:, 0] * float(alpha), probes,
+                    index))
 
     def __call__(self, brdfs, lighting_index):
         """``brdfs`` (B, 3) diffuse, specular, alpha; ``lighting_index`` (B,) into the set."""
@@ -151,6 +170,16 @@ class SphereRenderer:
         hdr = brdfs[:, 0, None, None, None] * self.diffuse[k] + brdfs[:, 1, None, None, None] \
             * glossy
         return expose((hdr * self.mask).expand(-1, 3, -1, -1))[:, :1]
+
+
+def turned_spheres(normal, angle_deg):
+    """Sphere normals (3, S, S) turned counter-clockwise about +z by each of ``angle_deg``
+    (m,) degrees: (m, 3, S, S)."""
+    angle = torch.deg2rad(torch.as_tensor(angle_deg, dtype=normal.dtype,
+                                          device=normal.device))[:, None, None]
+    c, s = torch.cos(angle), torch.sin(angle)
+    x, y, z = normal
+    return torch.stack([c * x - s * y, s * x + c * y, z.expand_as(c * x)], 1)
 
 
 def from_targets(values):
@@ -245,19 +274,23 @@ def ratio_table(cfg, renderer, labeled_percents=RATIO_LABELED, unlabeled_percent
     without self-augmentation and with each unlabeled percentage that fits beside it. Writes
     ratio_table.csv and ratio_table.md; returns {labeled: {"no SA" or unlabeled: MSE}}."""
     out = Path(cfg.out)
-    table = {}
+    work = {}
     for labeled_percent in labeled_percents:
-        row = {}
         for unlabeled_percent in (0,) + tuple(u for u in unlabeled_percents
                                               if labeled_percent + u <= 100):
             labeled, unlabeled = brdf_space.random_split(labeled_percent, unlabeled_percent,
                                                          cfg.seed)
             name = f"ratio {labeled_percent} {unlabeled_percent}"
-            mse = finished_run(out, name, lambda: _ratio_run(
-                cfg, renderer, labeled, unlabeled, unlabeled_percent > 0, name))["render_mse"]
+            work[name] = (_ratio_run, (cfg, renderer, labeled, unlabeled,
+                                       unlabeled_percent > 0, name))
+    results = finished_runs(cfg, work)
+    table = {}
+    for labeled_percent in labeled_percents:
+        row = {}
+        for unlabeled_percent in (0,) + tuple(u for u in unlabeled_percents
+                                              if labeled_percent + u <= 100):
+            mse = results[f"ratio {labeled_percent} {unlabeled_percent}"]["render_mse"]
             row["no SA" if unlabeled_percent == 0 else unlabeled_percent] = mse
-            log.info("ratio table: %s%% labeled, %s%% unlabeled: render MSE %.2e",
-                     labeled_percent, unlabeled_percent, mse)
         table[labeled_percent] = row
     header = ["percent labeled", "no SA"] + [f"{u}% unlabeled" for u in unlabeled_percents]
     rows = [[str(p), *(f"{row[k]:.2e}" if k in row else "" for k in ["no SA",
@@ -280,15 +313,12 @@ def run(cfg, patterns=PATTERNS):
         load_probe(path)
     continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE)
     renderer = make_renderer(cfg)
-    results = {}
+    work = {}
     for pattern in ("dense",) + tuple(patterns):
         for self_augment in ((False,) if pattern == "dense" else (False, True)):
             key = f"{pattern}{' SA' if self_augment else ''}"
-            results[key] = finished_run(out, key, lambda: _pattern_run(cfg, renderer, pattern,
-                                                                       self_augment))
-            log.info("%s: render MSE %.5f, parameter MSE %.4f (%.0f s)", key,
-                     results[key]["render_mse"], results[key]["parameter_mse"],
-                     results[key]["seconds"])
+            work[key] = (_pattern_run, (cfg, renderer, pattern, self_augment))
+    results = finished_runs(cfg, work)
     write_json(out / "results.json", results)
     _write_tables(out, results)
     _plot_heat_maps(out / "heat_maps.png", results, cfg.seed)
@@ -314,16 +344,38 @@ def _pattern_run(cfg, renderer, pattern, self_augment):
             "seconds": round(time.perf_counter() - start, 1)}
 
 
-def finished_run(out, name, compute):
-    """The result dict of run ``name``: read from ``out/runs/`` when an earlier invocation
-    finished it, else ``compute()``d and written there (atomically) first."""
-    path = out / "runs" / f"{name.replace(' ', '_')}.json"
-    if path.is_file():
-        log.info("%s: finished earlier, read from %s", name, path)
-        return json.loads(path.read_text())
-    result = compute()
-    write_json(path, result)
-    return result
+def finished_runs(cfg, work):
+    """The result dicts of the runs in ``work`` ({name: (function, arguments)}), in its order:
+    read from ``OUT/runs/`` where an earlier invocation finished them, else computed,
+    ``cfg.jobs`` at a time, and each written there (atomically) as soon as it is done."""
+    out = Path(cfg.out)
+    path = {name: out / "runs" / f"{name.replace(' ', '_')}.json" for name in work}
+    results = {}
+    for name in work:
+        if path[name].is_file():
+            log.info("%s: finished earlier, read from %s", name, path[name])
+            results[name] = json.loads(path[name].read_text())
+    todo = [name for name in work if name not in results]
+
+    def finish(name, result):
+        write_json(path[name], result)
+        results[name] = result
+        log.info("%s: render MSE %.3g (%d of %d runs done)", name, result["render_mse"],
+                 len(results), len(work))
+
+    if cfg.jobs == 1:
+        for name in todo:
+            function, arguments = work[name]
+            finish(name, function(*arguments))
+    elif todo:
+        threads = max(1, torch.get_num_threads() // cfg.jobs)
+        with ProcessPoolExecutor(cfg.jobs, mp_context=multiprocessing.get_context("spawn"),
+                                 initializer=torch.set_num_threads,
+                                 initargs=(threads,)) as pool:
+            running = {pool.submit(work[name][0], *work[name][1]): name for name in todo}
+            for future in as_completed(running):
+                finish(running[future], future.result())
+    return {name: results[name] for name in work}
 
 
 def _patterns(results):
