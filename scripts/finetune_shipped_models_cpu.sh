@@ -7,16 +7,17 @@
 # general network's sets (seeds 0, 2, 3 of each class and the real sets in REAL_SETS). Re-run
 # after an interruption, it resumes each run from its newest checkpoint.
 #
-# Environment: NETWORK (default homogeneous), EPOCHS (of 200 steps, default 10),
-# RELIT_WEIGHT (default 300), LEARNING_RATE (default 0.0005), REAL_SETS (general only: a
-# folder of the real sets the card lists).
+# Environment: NETWORK (default homogeneous; a comma-separated list trains several), EPOCHS
+# (of 200 steps, default 10), RELIT_WEIGHT (default 300), LEARNING_RATE (default 0.0005),
+# ALBEDO_LOSS (linear or log, default linear), REAL_SETS (general only: a folder of the real
+# sets the card lists).
 #
 #   bash scripts/finetune_shipped_models_cpu.sh WORK PROBES_TRAIN OUT_DIR CLASS...
 set -euo pipefail
 WORK=$1 PROBES=$2 OUT_DIR=$3
 shift 3
 NETWORK=${NETWORK:-homogeneous} EPOCHS=${EPOCHS:-10} RELIT_WEIGHT=${RELIT_WEIGHT:-300}
-LEARNING_RATE=${LEARNING_RATE:-0.0005} BIN=${BIN:-.venv/bin}
+LEARNING_RATE=${LEARNING_RATE:-0.0005} ALBEDO_LOSS=${ALBEDO_LOSS:-linear} BIN=${BIN:-.venv/bin}
 mkdir -p "$OUT_DIR"
 link_sets() {  # link_sets CLASS SEEDS...: make the sets if missing, link them into the maps
     local class=$1
@@ -40,12 +41,12 @@ for class in "$@"; do
     else
         link_sets "$class" 0 2 3 4
     fi
-    run="$WORK/runs/$class-$NETWORK"
+    run="$WORK/runs/$class-${NETWORK//,/-}-$ALBEDO_LOSS"
     "$BIN/sa-train" --init-from "models/svbrdf-$class.safetensors" --train-networks "$NETWORK" \
-        --relit-loss-weight "$RELIT_WEIGHT" --relit-loss-size 64 \
+        --relit-loss-weight "$RELIT_WEIGHT" --relit-loss-size 64 --albedo-loss "$ALBEDO_LOSS" \
         --labeled-maps "$WORK/maps/$class" --probes "$PROBES" --out "$run" --network compact \
         --labeled-epochs "$EPOCHS" --self-augmented-epochs 0 --learning-rate "$LEARNING_RATE" \
         --lr-gamma 1e-3 --epoch-samples 3200 --checkpoint-every 200 --log-every 50
     "$BIN/python" scripts/export_model.py "$run" "$OUT_DIR/svbrdf-$class.safetensors" \
-        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, lr $LEARNING_RATE, from models/svbrdf-$class.safetensors"
+        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, from models/svbrdf-$class.safetensors"
 done

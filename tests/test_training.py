@@ -20,7 +20,7 @@ from train.checkpoints import checkpoint_files, load_checkpoint
 from train.cli.sa_estimate import main as sa_estimate
 from train.cli.sa_evaluate import main as sa_evaluate
 from train.cli.sa_train import main as sa_train
-from train.losses import relit_loss
+from train.losses import losses, relit_loss
 from train.map_samples import MapSampler
 from train.model_files import save_model
 from train.networks import NetworkConfig, SVBRDFNet
@@ -355,6 +355,23 @@ def test_relit_loss_is_zero_for_the_truth_and_pulls_specular_and_roughness_towar
         loss.backward()
         assert loss.item() > 1e-5, name
         assert float((guess.grad * offset).sum()) > 0, (name, offset)  # descent moves back
+
+
+def test_log_albedo_loss_weighs_dark_errors_above_bright_specks():
+    """Hand-computed: a dark texel estimated at 0.08 (truth 0.02) and a bright speck at 12
+    (truth 15), each alone in a 1-texel map."""
+    def albedo_term(estimate, truth, kind):
+        prediction = {"albedo": torch.full((1, 3, 1, 1), estimate)}
+        return losses(prediction, {"albedo": torch.full((1, 3, 1, 1), truth)}, kind)["albedo"]
+
+    assert albedo_term(0.08, 0.02, "linear").item() == pytest.approx(0.06 ** 2, rel=1e-5)
+    assert albedo_term(12.0, 15.0, "linear").item() == pytest.approx(9.0, rel=1e-5)
+    assert albedo_term(0.08, 0.02, "log").item() == pytest.approx(np.log(3.0) ** 2, rel=1e-5)
+    assert albedo_term(12.0, 15.0, "log").item() == pytest.approx(
+        np.log(12.01 / 15.01) ** 2, rel=1e-5)
+    assert albedo_term(0.5, 0.5, "log").item() == 0.0
+    with pytest.raises(ValueError, match="albedo_loss 'square'"):
+        Run(TrainConfig(out="unused", probes=str(BUNDLED_PROBES), albedo_loss="square"))
 
 
 def test_a_crop_at_scale_two_is_the_whole_map_box_filtered_to_half_its_size():

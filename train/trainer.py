@@ -46,7 +46,7 @@ from train import distributed  # noqa: E402
 from train.checkpoints import checkpoint_files, load_checkpoint, save_checkpoint  # noqa: E402
 from train.evaluation import evaluate, stack_items  # noqa: E402
 from train.labeled_dataset import LabeledDataset  # noqa: E402
-from train.losses import losses, relit_loss  # noqa: E402
+from train.losses import ALBEDO_LOSSES, losses, relit_loss  # noqa: E402
 from train.map_samples import MapSampler  # noqa: E402
 from train.model_files import load_network  # noqa: E402
 from train.networks import PARTS, NetworkConfig, SVBRDFNet  # noqa: E402
@@ -113,6 +113,9 @@ class TrainConfig:
     """Self-augmented minibatches before each labeled one in those epochs."""
     unlabeled_limit: int | None = None
     """Most unlabeled images in the color-matched subset."""
+    albedo_loss: str = "linear"
+    """The albedo network's loss: "linear" (the paper's squared error of the relative albedo)
+    or "log" (of its logarithm, train.losses.losses)."""
     relit_loss_weight: float = 0.0
     """Weight of the relit loss (train.losses.relit_loss) added to every step's loss: the
     estimate and the truth rendered under a new random probe (of those labeled renders use)
@@ -138,6 +141,8 @@ class Run:
         if cfg.batch_size % place.world_size:
             raise ValueError(f"--batch-size {cfg.batch_size} is not divisible by the "
                              f"{place.world_size} processes")
+        if cfg.albedo_loss not in ALBEDO_LOSSES:
+            raise ValueError(f"albedo_loss {cfg.albedo_loss!r}: one of {ALBEDO_LOSSES}")
         if cfg.dataset is None and cfg.labeled_maps is None:
             raise InputError(cfg.out, "give a dataset, labeled maps, or both")
         self.train_set = LabeledDataset(cfg.dataset, "train") if cfg.dataset else []
@@ -298,7 +303,7 @@ class Run:
         for network in self.frozen:
             network.eval()  # frozen batch norm statistics
         prediction = self.model(batch["image"], parts=self.cfg.train_networks)
-        terms = losses(prediction, batch)
+        terms = losses(prediction, batch, self.cfg.albedo_loss)
         if self.cfg.relit_loss_weight > 0:
             terms["relit"] = self._relit_loss(index, prediction, batch)
             terms["total"] = terms["total"] + self.cfg.relit_loss_weight * terms["relit"]

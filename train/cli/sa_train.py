@@ -8,6 +8,7 @@ import os
 import click
 
 from render.common.errors import InputError
+from train.losses import ALBEDO_LOSSES
 from train.networks import COMPACT_CONFIG, PARTS, SMALL_CPU_CONFIG, NetworkConfig
 from train.optimization import OptimizerConfig
 from train.trainer import TrainConfig, run
@@ -52,6 +53,9 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
 @click.option("--self-augmented-epochs", default=10, show_default=True)
 @click.option("--unlabeled-per-labeled", default=1, show_default=True)
 @click.option("--unlabeled-limit", type=int, default=None)
+@click.option("--albedo-loss", type=click.Choice(ALBEDO_LOSSES), default="linear",
+              show_default=True, help="Squared error of the relative albedo (linear, the "
+                                      "paper's) or of its logarithm (log).")
 @click.option("--relit-loss-weight", default=0.0, show_default=True,
               help="Weight of the relit loss (the estimate and the truth rendered under new "
                    "lighting) added to the parameter losses.")
