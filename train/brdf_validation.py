@@ -28,10 +28,8 @@ import csv
 import dataclasses
 import json
 import logging
-import multiprocessing
 import time
 import zlib
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -54,7 +52,7 @@ from train.networks import NetworkConfig, HomogeneousNet  # noqa: E402
 from train.optimization import OptimizerConfig, make_optimizer  # noqa: E402
 
 log = logging.getLogger(__name__)
-MAY_CHANGE = ("out", "device", "jobs")
+MAY_CHANGE = ("out", "device")
 """Options a resumed validation may change (render.common.resume)."""
 
 ALPHA_LEVELS = np.geomspace(0.02, 1.0, 29)
@@ -95,11 +93,6 @@ class ValidationConfig:
     space exactly, fewer interpolate it (the toy configuration)."""
     seed: int = 0
     device: str = "cpu"
-    jobs: int = 1
-    """Runs trained at once, each in a process of its own with an equal share of torch's
-    threads. The small networks use two threads poorly, so on a CPU two one-thread runs at once
-    finish sooner than two two-thread runs in turn; results may differ in the last digits
-    (threads change the order of floating-point sums)."""
 
 
 CONFIGURATIONS = {
@@ -346,36 +339,21 @@ def _pattern_run(cfg, renderer, pattern, self_augment):
 
 def finished_runs(cfg, work):
     """The result dicts of the runs in ``work`` ({name: (function, arguments)}), in its order:
-    read from ``OUT/runs/`` where an earlier invocation finished them, else computed,
-    ``cfg.jobs`` at a time, and each written there (atomically) as soon as it is done."""
+    read from ``OUT/runs/`` where an earlier invocation finished them, else computed and each
+    written there (atomically) as soon as it is done."""
     out = Path(cfg.out)
-    path = {name: out / "runs" / f"{name.replace(' ', '_')}.json" for name in work}
     results = {}
-    for name in work:
-        if path[name].is_file():
-            log.info("%s: finished earlier, read from %s", name, path[name])
-            results[name] = json.loads(path[name].read_text())
-    todo = [name for name in work if name not in results]
-
-    def finish(name, result):
-        write_json(path[name], result)
-        results[name] = result
-        log.info("%s: render MSE %.3g (%d of %d runs done)", name, result["render_mse"],
+    for name, (function, arguments) in work.items():
+        path = out / "runs" / f"{name.replace(' ', '_')}.json"
+        if path.is_file():
+            log.info("%s: finished earlier, read from %s", name, path)
+            results[name] = json.loads(path.read_text())
+            continue
+        results[name] = function(*arguments)
+        write_json(path, results[name])
+        log.info("%s: render MSE %.3g (%d of %d runs done)", name, results[name]["render_mse"],
                  len(results), len(work))
-
-    if cfg.jobs == 1:
-        for name in todo:
-            function, arguments = work[name]
-            finish(name, function(*arguments))
-    elif todo:
-        threads = max(1, torch.get_num_threads() // cfg.jobs)
-        with ProcessPoolExecutor(cfg.jobs, mp_context=multiprocessing.get_context("spawn"),
-                                 initializer=torch.set_num_threads,
-                                 initargs=(threads,)) as pool:
-            running = {pool.submit(work[name][0], *work[name][1]): name for name in todo}
-            for future in as_completed(running):
-                finish(running[future], future.result())
-    return {name: results[name] for name in work}
+    return results
 
 
 def _patterns(results):

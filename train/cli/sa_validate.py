@@ -23,12 +23,10 @@ from train.brdf_validation import CONFIGURATIONS, PATTERNS, ValidationConfig, ra
               help="Also the labeled-unlabeled ratio table (55 more runs).")
 @click.option("--seed", default=0, show_default=True)
 @click.option("--device", default="cpu", show_default=True)
-@click.option("--jobs", default=1, show_default=True, type=click.IntRange(min=1),
-              help="Runs trained at once, one process each (2 on a 2-core CPU).")
-def main(probes, out, configuration, patterns, ratio_table_too, seed, device, jobs):
+def main(probes, out, configuration, patterns, ratio_table_too, seed, device):
     """Validate self-augmentation on BRDF-net, as in the paper."""
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
-    cfg = ValidationConfig(probes=probes, out=out, seed=seed, device=device, jobs=jobs,
+    cfg = ValidationConfig(probes=probes, out=out, seed=seed, device=device,
                            **CONFIGURATIONS[configuration])
     click.echo(json.dumps(dataclasses.asdict(cfg), indent=2))
     try:
