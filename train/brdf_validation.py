@@ -267,23 +267,19 @@ def ratio_table(cfg, renderer, labeled_percents=RATIO_LABELED, unlabeled_percent
     without self-augmentation and with each unlabeled percentage that fits beside it. Writes
     ratio_table.csv and ratio_table.md; returns {labeled: {"no SA" or unlabeled: MSE}}."""
     out = Path(cfg.out)
-    work = {}
-    for labeled_percent in labeled_percents:
-        for unlabeled_percent in (0,) + tuple(u for u in unlabeled_percents
-                                              if labeled_percent + u <= 100):
-            labeled, unlabeled = brdf_space.random_split(labeled_percent, unlabeled_percent,
-                                                         cfg.seed)
-            name = f"ratio {labeled_percent} {unlabeled_percent}"
-            work[name] = (_ratio_run, (cfg, renderer, labeled, unlabeled,
-                                       unlabeled_percent > 0, name))
-    results = finished_runs(cfg, work)
     table = {}
     for labeled_percent in labeled_percents:
         row = {}
         for unlabeled_percent in (0,) + tuple(u for u in unlabeled_percents
                                               if labeled_percent + u <= 100):
-            mse = results[f"ratio {labeled_percent} {unlabeled_percent}"]["render_mse"]
+            labeled, unlabeled = brdf_space.random_split(labeled_percent, unlabeled_percent,
+                                                         cfg.seed)
+            name = f"ratio {labeled_percent} {unlabeled_percent}"
+            mse = finished_run(out, name, lambda: _ratio_run(
+                cfg, renderer, labeled, unlabeled, unlabeled_percent > 0, name))["render_mse"]
             row["no SA" if unlabeled_percent == 0 else unlabeled_percent] = mse
+            log.info("ratio table: %s%% labeled, %s%% unlabeled: render MSE %.2e",
+                     labeled_percent, unlabeled_percent, mse)
         table[labeled_percent] = row
     header = ["percent labeled", "no SA"] + [f"{u}% unlabeled" for u in unlabeled_percents]
     rows = [[str(p), *(f"{row[k]:.2e}" if k in row else "" for k in ["no SA",
@@ -306,12 +302,15 @@ def run(cfg, patterns=PATTERNS):
         load_probe(path)
     continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE)
     renderer = make_renderer(cfg)
-    work = {}
+    results = {}
     for pattern in ("dense",) + tuple(patterns):
         for self_augment in ((False,) if pattern == "dense" else (False, True)):
             key = f"{pattern}{' SA' if self_augment else ''}"
-            work[key] = (_pattern_run, (cfg, renderer, pattern, self_augment))
-    results = finished_runs(cfg, work)
+            results[key] = finished_run(out, key, lambda: _pattern_run(cfg, renderer, pattern,
+                                                                       self_augment))
+            log.info("%s: render MSE %.5f, parameter MSE %.4f (%.0f s)", key,
+                     results[key]["render_mse"], results[key]["parameter_mse"],
+                     results[key]["seconds"])
     write_json(out / "results.json", results)
     _write_tables(out, results)
     _plot_heat_maps(out / "heat_maps.png", results, cfg.seed)
@@ -337,23 +336,16 @@ def _pattern_run(cfg, renderer, pattern, self_augment):
             "seconds": round(time.perf_counter() - start, 1)}
 
 
-def finished_runs(cfg, work):
-    """The result dicts of the runs in ``work`` ({name: (function, arguments)}), in its order:
-    read from ``OUT/runs/`` where an earlier invocation finished them, else computed and each
-    written there (atomically) as soon as it is done."""
-    out = Path(cfg.out)
-    results = {}
-    for name, (function, arguments) in work.items():
-        path = out / "runs" / f"{name.replace(' ', '_')}.json"
-        if path.is_file():
-            log.info("%s: finished earlier, read from %s", name, path)
-            results[name] = json.loads(path.read_text())
-            continue
-        results[name] = function(*arguments)
-        write_json(path, results[name])
-        log.info("%s: render MSE %.3g (%d of %d runs done)", name, results[name]["render_mse"],
-                 len(results), len(work))
-    return results
+def finished_run(out, name, compute):
+    """The result dict of run ``name``: read from ``out/runs/`` when an earlier invocation
+    finished it, else ``compute()``d and written there (atomically) first."""
+    path = out / "runs" / f"{name.replace(' ', '_')}.json"
+    if path.is_file():
+        log.info("%s: finished earlier, read from %s", name, path)
+        return json.loads(path.read_text())
+    result = compute()
+    write_json(path, result)
+    return result
 
 
 def _patterns(results):
