@@ -14,12 +14,10 @@ import time
 from pathlib import Path
 
 import click
-import numpy as np
 import torch
 
 from render.common.probes import find_probes
-from train.brdf_validation import CONFIGURATIONS, ValidationConfig, random_lightings, \
-    SphereRenderer
+from train.brdf_validation import CONFIGURATIONS, ValidationConfig, make_renderer
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -30,16 +28,15 @@ REPO = Path(__file__).resolve().parent.parent
 @click.option("--levels", default=29, show_default=True)
 @click.option("--probes", default=str(REPO / "probes"), show_default=True)
 def main(configuration, levels, probes):
-    cfg = ValidationConfig(probes=probes, out="", **CONFIGURATIONS[configuration])
-    files = find_probes(probes)
-    lightings = random_lightings(np.random.default_rng(cfg.seed), cfg.lightings, len(files))
+    cfg = ValidationConfig(probes=probes, out="", **(CONFIGURATIONS[configuration]
+                                                     | {"alpha_levels": levels}))
     start = time.perf_counter()
-    SphereRenderer(files, cfg.size, lightings, "cpu", np.geomspace(0.02, 1.0, levels))
+    make_renderer(cfg)
     seconds = time.perf_counter() - start
     print(json.dumps({"machine": f"{platform.machine()}, {os.cpu_count()} cores",
                       "torch_threads": torch.get_num_threads(), "config": configuration,
-                      "size": cfg.size, "lightings": cfg.lightings, "probes": len(files),
-                      "levels": levels, "seconds": round(seconds, 2)}))
+                      "size": cfg.size, "lightings": cfg.lightings,
+                      "probes": len(find_probes(probes)), "levels": levels, "seconds": round(seconds, 2)}))
 
 
 if __name__ == "__main__":

@@ -46,7 +46,8 @@ from render.common.color import luminance  # noqa: E402
 from render.common.exposure import expose  # noqa: E402
 from render.common.probes import find_probes, load_probe  # noqa: E402
 from render.common.resume import continue_folder  # noqa: E402
-from render.torch_renderer.renderer import ProbeBank, render, sphere_normals  # noqa: E402
+from render.torch_renderer.renderer import (ProbeBank, render, rotate_z,  # noqa: E402
+                                             sphere_normals)
 from train import brdf_space  # noqa: E402
 from train.networks import NetworkConfig, HomogeneousNet  # noqa: E402
 from train.optimization import OptimizerConfig, make_optimizer  # noqa: E402
@@ -132,12 +133,13 @@ class SphereRenderer:
         # lights the sphere turned by -r. So each probe is rendered once, with the turned
         # spheres of all its lightings side by side in one image: the renderer builds its
         # tables once per probe and level, not once per lighting.
+        ones = torch.ones(1, 3, device=device)
         probe_of_lighting = lightings[:, 0].astype(int)
         for probe in np.unique(probe_of_lighting):
             members = np.flatnonzero(probe_of_lighting == probe)
             turned = turned_spheres(normal, -lightings[members, 1])
             strip = turned.permute(1, 2, 0, 3).reshape(1, 3, size, len(members) * size)
-            ones, index = torch.ones(1, 3, device=device), [int(probe)]
+            index = [int(probe)]
 
             def spheres(image):  # (1, 3, S, m S) -> (m, 1, S, S), the members' spheres
                 return image[0, :1].reshape(1, size, len(members), size).permute(2, 0, 1, 3)
@@ -168,11 +170,10 @@ class SphereRenderer:
 def turned_spheres(normal, angle_deg):
     """Sphere normals (3, S, S) turned counter-clockwise about +z by each of ``angle_deg``
     (m,) degrees: (m, 3, S, S)."""
-    angle = torch.deg2rad(torch.as_tensor(angle_deg, dtype=normal.dtype,
-                                          device=normal.device))[:, None, None]
-    c, s = torch.cos(angle), torch.sin(angle)
-    x, y, z = normal
-    return torch.stack([c * x - s * y, s * x + c * y, z.expand_as(c * x)], 1)
+    angle = torch.as_tensor(angle_deg, dtype=normal.dtype, device=normal.device)
+    size = normal.shape[-1]
+    vectors = normal.reshape(3, -1).T.expand(len(angle), -1, -1)  # (m, S S, 3)
+    return rotate_z(vectors, angle).transpose(1, 2).reshape(len(angle), 3, size, size)
 
 
 def from_targets(values):

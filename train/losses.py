@@ -30,11 +30,12 @@ def losses(prediction, target, albedo_loss="linear"):
     region estimated at 0.08 instead of 0.02 weighs more than a bright speck at 12 instead of
     15 (relative albedos of dark materials with bright specks reach 16, and dominate the
     linear loss)."""
-    terms = {name: torch.mean((prediction[name] - target[name]) ** 2) for name in LABELS
-             if name in prediction}
-    if albedo_loss == "log" and "albedo" in prediction:
-        terms["albedo"] = torch.mean((torch.log(prediction["albedo"] + LOG_ALBEDO_OFFSET)
-                                      - torch.log(target["albedo"] + LOG_ALBEDO_OFFSET)) ** 2)
+    terms = {}
+    for name in (name for name in LABELS if name in prediction):
+        estimate, truth = prediction[name], target[name]
+        if name == "albedo" and albedo_loss == "log":
+            estimate, truth = (torch.log(x + LOG_ALBEDO_OFFSET) for x in (estimate, truth))
+        terms[name] = torch.mean((estimate - truth) ** 2)
     terms["total"] = sum(terms.values())
     return terms
 

@@ -158,7 +158,7 @@ def inverse_stereographic(p):
     return torch.cat([2 * p, 1 - q], -1) / (1 + q)
 
 
-def _rotate_z(vectors, rotation_deg):
+def rotate_z(vectors, rotation_deg):
     """Rotate (B, N, 3) vectors counter-clockwise about +z by (B,) degrees."""
     angle = torch.deg2rad(rotation_deg)[:, None]
     c, s = torch.cos(angle), torch.sin(angle)
@@ -264,7 +264,7 @@ def _diffuse_tables(probes, probe_index, rotation, layout, dtype):
     p = torch.stack(torch.broadcast_tensors(px[:, None, :], py[:, :, None]), -1)
     normals = inverse_stereographic(p).reshape(batch, -1, 3)
     energy, directions = probes.blocks(int(block_size(DIFFUSE_BLOCK_ANGLE, probes.height)))
-    directions = _rotate_z(directions[probe_index].to(dtype), rotation)
+    directions = rotate_z(directions[probe_index].to(dtype), rotation)
     cosines = torch.relu(normals @ directions.transpose(1, 2))
     table = cosines @ energy[probe_index].to(dtype) / math.pi
     return table.transpose(1, 2).reshape(batch, 3, DIFFUSE_TABLE, DIFFUSE_TABLE)
@@ -278,7 +278,7 @@ def _splat_half_vectors(probes, probe_index, rotation, view, layout, dtype):
     for factor in layout.refinement[~layout.broad].unique().tolist():
         samples = ((layout.refinement == factor) & ~layout.broad).nonzero().squeeze(1)
         energy, directions = probes.nodes(factor)
-        directions = _rotate_z(directions.to(dtype).expand(len(samples), -1, -1),
+        directions = rotate_z(directions.to(dtype).expand(len(samples), -1, -1),
                                rotation[samples])
         h = torch.nn.functional.normalize(directions + view[samples, None, :], dim=-1)
         lattice = stereographic(h) / layout.step[samples].to(dtype)[:, None, None] \
@@ -347,7 +347,7 @@ def _broad_specular_tables(probes, probe_index, rotation, view, roughness, layou
         energy, directions = probes.blocks(int(layout.block[sample]))
         probe = probe_index[sample]
         light = torch.nn.functional.normalize(
-            _rotate_z(directions[probe, None].to(dtype), rotation[sample, None])[0], dim=-1)
+            rotate_z(directions[probe, None].to(dtype), rotation[sample, None])[0], dim=-1)
         v = view[sample]
         half = torch.nn.functional.normalize(light + v, dim=-1)  # (D, 3)
         rows = entries[entries[:, 0] == sample]
