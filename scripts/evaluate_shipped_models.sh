@@ -64,3 +64,8 @@ done
 "$BIN/sa-evaluate" --model "$MODELS/svbrdf-general.safetensors" \
     $(datasets wood plastic metal aluminium) --split all --probes "$WORK/probes" --samples 96 \
     --out "$WORK/eval/general" > "$WORK/eval/general.json"
+# sa-estimate's default: the class network the material classifier picks for each photo (the
+# classifier and the class networks of this installation's models/), on the general test
+"$BIN/sa-evaluate" --class auto \
+    $(datasets wood plastic metal aluminium) --split all --probes "$WORK/probes" --samples 96 \
+    --out "$WORK/eval/auto" > "$WORK/eval/auto.json"

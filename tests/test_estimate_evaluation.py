@@ -206,11 +206,12 @@ def test_shipped_models_load_and_fit_the_size_limit(name):
     assert net.config.input_size == 256
 
 
-def test_sa_estimate_without_a_model_uses_the_shipped_general_network(tmp_path):
+def test_sa_estimate_with_a_class_uses_that_shipped_network(tmp_path):
     photo = REPO / "scenes" / "photos" / "brick-reference-01.jpg"
-    result = CliRunner().invoke(sa_estimate, [str(photo), "--out", str(tmp_path / "est")])
+    result = CliRunner().invoke(sa_estimate, [str(photo), "--class", "general", "--out",
+                                              str(tmp_path / "est")])
     assert result.exit_code == 0, result.output
-    report = json.loads(result.output.strip().splitlines()[-1])
+    report = json.loads(result.stdout.strip().splitlines()[-1])
     assert report["model"].endswith("svbrdf-general.safetensors")
     material = json.loads((tmp_path / "est" / photo.stem / "material.json").read_text())
     assert 0.02 <= material["ward_roughness"] <= 1.0

@@ -1,4 +1,6 @@
-"""``sa-estimate``: the reduced SVBRDF of photos, from a trained SVBRDF-net checkpoint.
+"""``sa-estimate``: the reduced SVBRDF of photos, from a trained SVBRDF-net (a shipped network
+chosen per photo by the material classifier, a shipped class network, or a given model file:
+train.network_choice).
 
 For each photo it writes a folder ``OUT/<photo stem>/`` holding:
 
@@ -7,7 +9,8 @@ For each photo it writes a folder ``OUT/<photo stem>/`` holding:
                                train.full_resolution): linear EXR, sRGB PNG
     normal.exr, normal.png     unit normals at the same resolution, encoded (n + 1) / 2, OpenGL
                                convention
-    material.json              relative specular albedo and Ward roughness, photo, model: the
+    material.json              relative specular albedo and Ward roughness, photo, model (and
+                               the classifier's class and probabilities where it chose): the
                                folder is a material folder that render-dataset reads
     scene.xml                  a Mitsuba scene rendering the estimate under the first probe
                                (render.mitsuba_reference.scene_file)
@@ -47,7 +50,6 @@ from render.materials.reduced_svbrdf import ReducedSVBRDF, resample, write_mater
 from render.mitsuba_reference.scene_file import write_scene_file
 from render.torch_renderer.renderer import ProbeBank, render
 from train.full_resolution import MAX_SIDE, full_resolution_maps
-from train.model_files import load_network
 from train.photos import read_linear_photo, read_photo
 
 REPO = Path(__file__).resolve().parent.parent
@@ -71,9 +73,6 @@ def estimate(net, photo):
 class EstimateConfig:
     photos: tuple
     """Photo files (PNG, JPEG, TIFF, BMP, EXR, HDR), read by train.photos.read_photo."""
-    model: str
-    """A model file (.safetensors), an sa-train checkpoint (.pt) or a run folder (its newest
-    checkpoint); train.model_files reads each without executing code."""
     out: str
     """Output folder: a folder per photo and report.html."""
     probes: tuple = DEFAULT_PROBES
@@ -85,14 +84,14 @@ class EstimateConfig:
     """torch device of the network (cpu, cuda); previews render on the CPU."""
 
 
-def run(cfg):
-    """Estimate the reduced SVBRDF of each photo of ``cfg`` and write the outputs; returns a
-    report per photo (its output folder, network milliseconds and parameters)."""
+def run(cfg, choice):
+    """Estimate the reduced SVBRDF of each photo of ``cfg`` with the network ``choice`` gives
+    it (train.network_choice) and write the outputs; returns a report per photo (its output
+    folder, the network and why, network milliseconds and parameters)."""
     require_output_folder(cfg.out)
     if cfg.max_side < 16:
         raise ValueError(f"max_side {cfg.max_side} is below 16 px")
-    net = load_network(cfg.model, torch.device(cfg.device))
-    size = net.config.input_size
+    size = choice.input_size
     inputs = [read_photo(path, size) for path in cfg.photos]  # checks every photo first
     stems = [Path(path).stem for path in cfg.photos]
     if len(set(stems)) != len(stems):
@@ -105,6 +104,7 @@ def run(cfg):
     for path, photo, stem in zip(cfg.photos, inputs, stems):
         linear_photo = read_linear_photo(path)  # read again: one whole photo in memory at a time
         start = time.perf_counter()
+        net, chosen = choice.for_photo(photo)
         svbrdf = estimate(net, photo)
         milliseconds = 1000.0 * (time.perf_counter() - start)
         start = time.perf_counter()
@@ -112,12 +112,11 @@ def run(cfg):
         full_milliseconds = 1000.0 * (time.perf_counter() - start)
         full = ReducedSVBRDF(stem, albedo, normal, svbrdf.specular, svbrdf.roughness)
         folder = Path(cfg.out) / stem
-        write_material(folder, full, {"photo": str(Path(path).resolve()),
-                                      "model": str(Path(cfg.model))})
+        write_material(folder, full, {"photo": str(Path(path).resolve())} | chosen)
         write_scene_file(folder, full, probes[0])
         write_gltf_file(folder / "material.glb", full)
         relit = _write_pictures(folder, linear_photo, full, size, bank, cfg.probes)
-        reports.append({"photo": str(path), "out": str(folder), "model": str(cfg.model),
+        reports.append({"photo": str(path), "out": str(folder)} | chosen | {
                         "network_ms": round(milliseconds, 1),
                         "full_resolution_ms": round(full_milliseconds, 1),
                         "map_size": [int(albedo.shape[1]), int(albedo.shape[0])],
@@ -188,6 +187,10 @@ def _report_section(report):
                            f"relit under {html.escape(file[len('relit-'):-len('.png')])}")
                     for file in report["relit"])
     specular = " ".join(f"{v:.4f}" for v in report["specular_albedo"])
+    network = html.escape(Path(report["model"]).name)
+    if "class" in report:
+        odds = ", ".join(f"{name} {p:.2f}" for name, p in report["class_probabilities"].items())
+        network += f" (class {html.escape(report['class'])} by the classifier: {odds})"
     return (f"<h2>{name}</h2>"
             + figure(f"{folder}/photo.png", f"{name}: the photo", "photo")
             + figure(f"{folder}/albedo.png", f"{name}: estimated relative diffuse albedo, "
@@ -197,7 +200,8 @@ def _report_section(report):
                      f"normals, {width}x{height} px, (n + 1) / 2, OpenGL convention")
             + f"<table><tr><th>relative specular albedo (linear RGB, unitless)</th>"
               f"<td>{specular}</td></tr><tr><th>Ward roughness &alpha; (unitless, slope "
-              f"RMS)</th><td>{report['roughness']:.4f}</td></tr><tr><th>network time</th>"
+              f"RMS)</th><td>{report['roughness']:.4f}</td></tr><tr><th>network</th>"
+              f"<td>{network}</td></tr><tr><th>network time</th>"
               f"<td>{report['network_ms']} ms at input size, {report['full_resolution_ms']} "
               f"ms for the full-resolution maps</td></tr></table>"
             + f"<div>{relit}</div>")

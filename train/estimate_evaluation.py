@@ -7,8 +7,10 @@ probes of ``--probes`` (train.map_samples; ``--samples`` of them, drawn from ``-
 
 Each test image goes the way a user's photo goes: it is saved as an 8-bit PNG, gamma 1/2.2
 encoded, and read back by train.photos.read_photo (gamma 2.2 decoding, centre square, resize),
-then estimated by train.estimate.estimate, exactly as ``sa-estimate`` does. The truth is box
-filtered to the network's input size when the data has another.
+then estimated by train.estimate.estimate with the network train.network_choice gives it (with
+``--class auto``, the shipped network the material classifier picks for that photo), exactly as
+``sa-estimate`` does. The truth is box filtered to the network's input size when the data has
+another.
 
 Errors per sample (all on the paper's relative quantities, natural logs):
     albedo_rmse              RMSE of the relative diffuse albedo (pixels and channels)
@@ -57,6 +59,7 @@ from train.estimate import estimate
 from train.labeled_dataset import LabeledDataset
 from train.losses import maps_at_size
 from train.map_samples import MapSampler
+from train.material_classifier import ROUTES
 from train.photos import PHOTO_GAMMA, read_photo
 
 NAIVE_SPECULAR = 0.08
@@ -141,13 +144,15 @@ def as_photo_file(image, folder, name):
     return path
 
 
-def model_estimate(net, photo):
-    """The estimate sa-estimate would write, as a dict of (1, ...) tensors."""
+def model_estimate(choice, photo):
+    """The estimate sa-estimate would write, as a dict of (1, ...) tensors, and the dict that
+    says which network made it (train.network_choice)."""
+    net, chosen = choice.for_photo(photo)
     svbrdf = estimate(net, photo)
     return {"albedo": torch.as_tensor(svbrdf.albedo.transpose(2, 0, 1))[None],
             "normal": torch.as_tensor(svbrdf.normal.transpose(2, 0, 1))[None],
             "log_specular": torch.as_tensor(np.log(svbrdf.specular))[None],
-            "log_roughness": torch.tensor([[math.log(svbrdf.roughness)]])}
+            "log_roughness": torch.tensor([[math.log(svbrdf.roughness)]])}, chosen
 
 
 def naive_estimate(photo):
@@ -209,16 +214,17 @@ def held_out_probes(cfg):
             for record in LabeledDataset(folder, "test").samples}
 
 
-def run(cfg, net):
-    """Evaluate ``net`` (evaluation mode) on the data of ``cfg``; write results.json and
-    figure.png into ``cfg.out``; return the report dict."""
+def run(cfg, choice):
+    """Evaluate the estimates of the networks ``choice`` gives (train.network_choice) on the
+    data of ``cfg``; write results.json and figure.png into ``cfg.out``; return the report
+    dict."""
     require_output_folder(cfg.out)
     probe_files = find_probes(cfg.probes)
     probe_names = [path.stem for path in probe_files]
     bank = ProbeBank([load_probe(path).radiance for path in probe_files], device=cfg.device)
     samples = test_samples(cfg, bank, probe_names)
     held_out = held_out_probes(cfg)
-    size = net.config.input_size
+    size = choice.input_size
     records, figure_rows = [], []
     shown = set(np.linspace(0, len(samples) - 1, min(FIGURE_ROWS, len(samples))).astype(int))
     with tempfile.TemporaryDirectory() as photos:
@@ -232,10 +238,12 @@ def run(cfg, net):
                                                     cfg.relights)
             truth_hdr = relit_under(truth, bank, probe_index, rotation)
             relit_truth = expose(truth_hdr)
+            estimated, chosen = model_estimate(choice, photo)
             record = {"sample": name, "photo_probe": own_probe,
-                      "relight_probes": [probe_names[int(p)] for p in probe_index]}
-            for kind, parameters in (("model", model_estimate(net, photo)),
-                                     ("naive", naive_estimate(photo))):
+                      "relight_probes": [probe_names[int(p)] for p in probe_index],
+                      "network": chosen["model"]}  # "model" holds the model's errors
+            record |= {key: value for key, value in chosen.items() if key != "model"}
+            for kind, parameters in (("model", estimated), ("naive", naive_estimate(photo))):
                 parameters = {name: value.to(cfg.device) for name, value in parameters.items()}
                 relit = expose(relit_under(parameters, bank, probe_index, rotation),
                                reference=truth_hdr)
@@ -248,10 +256,14 @@ def run(cfg, net):
                     figure_rows.append(figure_row(photo, parameters, truth, relit[0],
                                                   relit_truth[0]))
             records.append(record)
-    report = {"model": str(getattr(net, "source", "")),
+    models = sorted({record["network"] for record in records})
+    report = {"model": models[0] if len(models) == 1 else models,
               "data": list(cfg.datasets) or cfg.materials,
               "split": cfg.split if cfg.datasets else None,
               "samples": len(records), "mean": summary(records), "per_sample": records}
+    if any("class" in record for record in records):
+        report["classes_chosen"] = {route: sum(record.get("class") == route for record in records)
+                                    for route in ROUTES}
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "results.json") as tmp:

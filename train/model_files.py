@@ -40,10 +40,17 @@ def shipped_model_path(name):
 
 def save_model(net, path, metadata):
     """Write ``net``'s weights (floats as float16) and ``metadata`` (str -> JSON-able) as a
-    shipped model file, atomically, readable by everyone (safetensors creates it owner-only)."""
+    shipped model file."""
+    save_weights_file(net, path, {"format": FORMAT} | metadata)
+
+
+def save_weights_file(module, path, metadata):
+    """Write a module's weights (floats as float16), its ``config`` as ``network`` and
+    ``metadata`` (str -> JSON-able) as a safetensors file, atomically, readable by everyone
+    (safetensors creates it owner-only)."""
     tensors = {name: (value.half() if value.is_floating_point() else value).contiguous().cpu()
-               for name, value in net.state_dict().items()}
-    header = {"format": FORMAT, "network": json.dumps(vars(net.config))}
+               for name, value in module.state_dict().items()}
+    header = {"network": json.dumps(vars(module.config))}
     header |= {key: value if isinstance(value, str) else json.dumps(value)
                for key, value in metadata.items()}
     with atomic_path(Path(path)) as tmp:

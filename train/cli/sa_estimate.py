@@ -7,7 +7,8 @@ import click
 from render.common.errors import InputError
 from train.estimate import DEFAULT_PROBES, EstimateConfig, run
 from train.full_resolution import MAX_SIDE
-from train.model_files import SHIPPED, shipped_model_path
+from train.model_files import SHIPPED
+from train.network_choice import AUTO, network_choice
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -15,8 +16,9 @@ from train.model_files import SHIPPED, shipped_model_path
 @click.option("--model", type=click.Path(), default=None,
               help="A model file (.safetensors), an sa-train checkpoint (.pt) or a run folder "
                    "(its newest checkpoint). Default: the shipped network of --class.")
-@click.option("--class", "material_class", type=click.Choice(SHIPPED), default="general",
-              show_default=True, help="Shipped network to use when no --model is given.")
+@click.option("--class", "material_class", type=click.Choice((AUTO,) + SHIPPED), default=AUTO,
+              show_default=True, help="Shipped network to use when no --model is given; "
+                                      "auto: the one the material classifier picks per photo.")
 @click.option("--out", required=True, type=click.Path(), help="Output folder.")
 @click.option("--probe", "probes", type=click.Path(), multiple=True,
               help="HDR probe to relight the estimate under (repeat for several; the first "
@@ -28,9 +30,8 @@ from train.model_files import SHIPPED, shipped_model_path
 def main(model, material_class, probes, **options):
     """Estimate the reduced SVBRDF of each PHOTO."""
     try:
-        cfg = EstimateConfig(model=str(model or shipped_model_path(material_class)),
-                             probes=tuple(probes) or DEFAULT_PROBES, **options)
-        reports = run(cfg)
+        cfg = EstimateConfig(probes=tuple(probes) or DEFAULT_PROBES, **options)
+        reports = run(cfg, network_choice(model, material_class, cfg.device))
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
     for report in reports:

@@ -3,18 +3,19 @@
 import json
 
 import click
-import torch
 
 from render.common.errors import InputError
-from train.model_files import SHIPPED, load_network, shipped_model_path
 from train.estimate_evaluation import EvaluationConfig, run
+from train.model_files import SHIPPED
+from train.network_choice import AUTO, network_choice
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.option("--model", type=click.Path(), default=None,
               help="Model file (.safetensors), sa-train checkpoint (.pt) or run folder.")
-@click.option("--class", "material_class", type=click.Choice(SHIPPED), default="general",
-              show_default=True, help="Shipped network to evaluate when no --model is given.")
+@click.option("--class", "material_class", type=click.Choice((AUTO,) + SHIPPED), default=AUTO,
+              show_default=True, help="Shipped network to evaluate when no --model is given; "
+                                      "auto: the one the material classifier picks per photo.")
 @click.option("--dataset", "datasets", type=click.Path(), multiple=True,
               help="render-dataset folder whose --split is evaluated (repeatable).")
 @click.option("--materials", type=click.Path(), default=None,
@@ -37,8 +38,7 @@ def main(model, material_class, per_sample, **options):
     """Evaluate MODEL's estimates against the truth and the naive baseline; JSON on stdout."""
     try:
         cfg = EvaluationConfig(**options)
-        model = model or shipped_model_path(material_class)
-        report = run(cfg, load_network(model, torch.device(cfg.device)))
+        report = run(cfg, network_choice(model, material_class, cfg.device))
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
     if not per_sample:

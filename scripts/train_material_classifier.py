@@ -1,0 +1,160 @@
+"""Train the material classifier (train.material_classifier) and measure it on held-out data.
+
+Each step renders a minibatch of ``--per-route`` labeled photos of every route with the torch
+renderer (train.map_samples.MapSampler: a random 256 px crop of a random material of the
+route's folder, at a random scale of 1 or 2, under a random probe of ``--probes`` at a random
+rotation, auto-exposed), and takes one Adam step of the cross entropy. The random choices of
+step k come from a generator seeded by (seed, k), and a checkpoint (``RUN/checkpoint.pt``,
+read back with torch's safe loader) is written every ``--checkpoint-every`` steps, so a run
+that is cut off continues where it stopped when started again with the same command.
+
+At the end it writes ``RUN/loss.png`` (the loss curve), exports the classifier with the cost
+matrix of ``--costs`` (written by scripts/measure_route_costs.py) to ``--export`` and, with ``--test ROUTE=FOLDER`` and ``--test-probes``, prints as JSON the confusion matrix
+over ``--test-samples`` photos per route rendered the same way from those (held-out) sets.
+
+    .venv/bin/python scripts/train_material_classifier.py --maps wood=MAPS/wood \
+        --maps plastic=MAPS/plastic --maps metal=MAPS/metal --maps general=REAL_SETS \
+        --probes PROBES_TRAIN --run RUN --steps 1000 --costs costs.json \
+        --export models/material-classifier.safetensors
+"""
+
+import json
+from pathlib import Path
+
+import click
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+from torch.nn import functional  # noqa: E402
+from tqdm import tqdm  # noqa: E402
+
+from render.common.atomic_files import atomic_path  # noqa: E402
+from render.common.probes import find_probes, load_probe  # noqa: E402
+from render.torch_renderer.renderer import ProbeBank  # noqa: E402
+from train.map_samples import MapSampler  # noqa: E402
+from train.material_classifier import ROUTES, MaterialClassifier, save_classifier  # noqa: E402
+
+PHOTO_SIZE = 256
+RENDER_SIZE = 512
+CROP_SCALES = (1, 2)
+
+
+def route_folders(pairs):
+    """{route: folder} of ``ROUTE=FOLDER`` options; every route must be given."""
+    folders = dict(pair.split("=", 1) for pair in pairs)
+    if sorted(folders) != sorted(ROUTES):
+        raise click.BadParameter(f"give one folder per route {list(ROUTES)}, got {sorted(folders)}")
+    return folders
+
+
+def samplers(folders, probes_folder):
+    bank = ProbeBank([load_probe(path).radiance for path in find_probes(probes_folder)])
+    return [MapSampler(folders[route], bank, range(len(bank)), PHOTO_SIZE, RENDER_SIZE,
+                       crop_scales=CROP_SCALES) for route in ROUTES]
+
+
+def minibatch(route_samplers, rng, per_route):
+    """Photos (n, 3, S, S) and route indices (n,)."""
+    photos = [sampler.batch(rng, per_route)["image"] for sampler in route_samplers]
+    labels = torch.arange(len(ROUTES)).repeat_interleave(per_route)
+    return torch.cat(photos), labels
+
+
+def write_loss_curve(path, history):
+    steps, losses = zip(*history)
+    window = max(1, len(losses) // 50)
+    smooth = np.convolve(losses, np.ones(window) / window, mode="valid")
+    figure, axes = plt.subplots(figsize=(6, 3.5))
+    axes.plot(steps, losses, color="0.8", label="per step")
+    axes.plot(steps[window - 1:], smooth, color="C0", label=f"mean of {window}")
+    axes.set(xlabel="step", ylabel="cross entropy", yscale="log",
+             title="material classifier training")
+    axes.legend()
+    figure.tight_layout()
+    with atomic_path(Path(path)) as tmp:
+        figure.savefig(tmp, format="png", dpi=100)
+    plt.close(figure)
+
+
+@click.command()
+@click.option("--maps", "maps", multiple=True, required=True, help="ROUTE=FOLDER of material "
+              "folders, one per route (wood, plastic, metal, general).")
+@click.option("--probes", required=True, type=click.Path(), help="Training probes.")
+@click.option("--run", "run_folder", required=True, type=click.Path(), help="Run folder.")
+@click.option("--steps", default=1000, show_default=True)
+@click.option("--per-route", default=6, show_default=True, help="Photos per route per step.")
+@click.option("--learning-rate", default=1e-3, show_default=True)
+@click.option("--seed", default=0, show_default=True)
+@click.option("--checkpoint-every", default=100, show_default=True)
+@click.option("--export", type=click.Path(), default=None, help="Classifier file to write.")
+@click.option("--costs", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="Cost matrix JSON of scripts/measure_route_costs.py (needed by --export).")
+@click.option("--test", "tests", multiple=True, help="ROUTE=FOLDER of held-out sets.")
+@click.option("--test-probes", type=click.Path(), default=None, help="Held-out probes.")
+@click.option("--test-samples", default=60, show_default=True, help="Test photos per route.")
+def main(maps, probes, run_folder, steps, per_route, learning_rate, seed, checkpoint_every,
+         export, costs, tests, test_probes, test_samples):
+    if export and not costs:
+        raise click.UsageError("--export needs --costs")
+    torch.manual_seed(seed)
+    run = Path(run_folder)
+    run.mkdir(parents=True, exist_ok=True)
+    classifier = MaterialClassifier()
+    optimizer = torch.optim.Adam(classifier.parameters(), lr=learning_rate, weight_decay=1e-4)
+    schedule = torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, steps)
+    checkpoint, start, history = run / "checkpoint.pt", 0, []
+    if checkpoint.is_file():
+        state = torch.load(checkpoint, map_location="cpu", weights_only=True)
+        classifier.load_state_dict(state["model"])
+        optimizer.load_state_dict(state["optimizer"])
+        schedule.load_state_dict(state["schedule"])
+        start, history = state["step"], [tuple(item) for item in state["history"]]
+        torch.set_rng_state(state["torch_rng"])
+    route_samplers = samplers(route_folders(maps), probes)
+    classifier.train()
+    for step in tqdm(range(start, steps), initial=start, total=steps, desc="classifier"):
+        photos, labels = minibatch(route_samplers, np.random.default_rng([seed, step]),
+                                   per_route)
+        loss = functional.cross_entropy(classifier(photos), labels)
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+        schedule.step()
+        history.append((step + 1, loss.item()))
+        if (step + 1) % checkpoint_every == 0 or step + 1 == steps:
+            with atomic_path(checkpoint) as tmp:
+                torch.save({"model": classifier.state_dict(), "optimizer": optimizer.state_dict(),
+                            "schedule": schedule.state_dict(), "step": step + 1,
+                            "history": history, "torch_rng": torch.get_rng_state()}, tmp)
+    write_loss_curve(run / "loss.png", history)
+    classifier.eval()
+    if export:
+        measured = json.loads(Path(costs).read_text())
+        if tuple(measured["routes"]) != ROUTES:
+            raise click.UsageError(f"{costs}: routes {measured['routes']}, expected {ROUTES}")
+        save_classifier(classifier, export, measured["costs"], {
+            "costs_measured_on": measured["validation"],
+            "recipe": f"scripts/train_material_classifier.py, {steps} steps of {per_route} "
+                      f"photos per route, lr {learning_rate}, seed {seed}",
+            "trained_on": {route: str(Path(folder)) for route, folder in
+                           route_folders(maps).items()}})
+    if tests:
+        test_samplers = samplers(route_folders(tests), test_probes)
+        confusion = np.zeros((len(ROUTES), len(ROUTES)), dtype=int)
+        rng = np.random.default_rng([seed, 0, 1])  # test photos; training draws (seed, step)
+        for truth, sampler in enumerate(test_samplers):
+            for start_index in range(0, test_samples, 20):
+                count = min(20, test_samples - start_index)
+                chosen = classifier.probabilities(sampler.batch(rng, count)["image"]).argmax(1)
+                for answer in chosen.tolist():
+                    confusion[truth, answer] += 1
+        click.echo(json.dumps({"routes": ROUTES, "confusion (rows: truth, columns: answer)":
+                               confusion.tolist(),
+                               "accuracy": float(np.trace(confusion) / confusion.sum())}))
+
+
+if __name__ == "__main__":
+    main()

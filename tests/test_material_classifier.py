@@ -1,0 +1,109 @@
+"""The material classifier and the per-photo choice of a shipped network (``--class auto``)."""
+
+import json
+
+import numpy as np
+import pytest
+import torch
+from click.testing import CliRunner
+
+from render.common.errors import InputError
+from render.common.probes import find_probes, load_probe
+from render.torch_renderer.renderer import ProbeBank
+from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO
+from train.cli.sa_estimate import main as sa_estimate
+from train.map_samples import MapSampler
+from train.material_classifier import (ROUTES, MaterialClassifier, cheapest_route,
+                                       load_classifier, save_classifier)
+from train.model_files import shipped_model_path
+from train.network_choice import CLASSIFIER_FILE, ClassRouter, network_choice
+
+
+def sure_of(route, costs=None):
+    """A classifier that gives ``route`` a probability of 0.9998 for every photo, weighing
+    ``costs`` (default: 1 for a wrong network, 0 for the right one)."""
+    classifier = MaterialClassifier()
+    with torch.no_grad():
+        classifier.head.weight.zero_()
+        classifier.head.bias.copy_(torch.tensor([10.0 if r == route else 0.0 for r in ROUTES]))
+    classifier.costs = torch.ones(len(ROUTES), len(ROUTES)) - torch.eye(len(ROUTES)) \
+        if costs is None else torch.as_tensor(costs, dtype=torch.float64)
+    return classifier.eval()
+
+
+def test_the_network_of_least_expected_cost_is_chosen():
+    costs = [[0.0, 1.0, 1.0],  # a photo of route 0 costs 1 with networks 1 and 2
+             [1.0, 0.0, 1.0],
+             [100.0, 100.0, 0.0]]  # route 2 is expensive to get wrong
+    assert cheapest_route([0.6, 0.3, 0.1], costs) == 2  # 0.4 + 0.3 + 0 against 10.3 or 10.6
+    assert cheapest_route([0.6, 0.4, 0.0], costs) == 0
+    assert cheapest_route([0.3, 0.7, 0.0], costs) == 1
+
+
+def test_a_saved_classifier_reads_back_with_its_answers(tmp_path):
+    torch.manual_seed(0)
+    classifier = MaterialClassifier().eval()
+    photos = torch.rand(2, 3, 256, 256)
+    costs = [[float(i + j) for j in range(len(ROUTES))] for i in range(len(ROUTES))]
+    save_classifier(classifier, tmp_path / "c.safetensors", costs, {"recipe": "test"})
+    again = load_classifier(tmp_path / "c.safetensors")
+    # float16 weights: the logits agree to about 1e-3 of their size
+    assert torch.allclose(again(photos), classifier(photos), atol=2e-2, rtol=1e-2)
+    assert again.probabilities(photos).sum(1) == pytest.approx(torch.ones(2), abs=1e-5)
+    assert again.costs.tolist() == costs
+
+
+def test_a_model_file_is_not_taken_for_a_classifier():
+    path = shipped_model_path("wood")
+    with pytest.raises(InputError, match="not an sa-svbrdf classifier") as error:
+        load_classifier(path)
+    assert str(path) in str(error.value) and "\n" not in str(error.value)
+
+
+def test_photos_of_a_size_the_classifier_cannot_pool_are_refused():
+    with pytest.raises(ValueError, match="not squares of a multiple of 128"):
+        MaterialClassifier()(torch.rand(1, 3, 200, 200))
+
+
+def test_the_router_gives_the_network_of_the_class_it_picks():
+    router = ClassRouter(sure_of("metal"))
+    net, chosen = router.for_photo(np.random.default_rng(0).random((3, 256, 256),
+                                                                    dtype=np.float32))
+    assert chosen["class"] == "metal" and chosen["model"].endswith("svbrdf-metal.safetensors")
+    assert net.source == chosen["model"] and chosen["class_probabilities"]["metal"] > 0.99
+
+
+def test_sa_estimate_by_default_says_which_network_the_classifier_chose(tmp_path):
+    photo = REPO / "scenes" / "photos" / "brick-reference-01.jpg"
+    result = CliRunner().invoke(sa_estimate, [str(photo), "--out", str(tmp_path / "est")])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    assert report["class"] in ROUTES
+    assert report["model"].endswith(f"svbrdf-{report['class']}.safetensors")
+    assert sum(report["class_probabilities"].values()) == pytest.approx(1.0, abs=1e-3)
+    material = json.loads((tmp_path / "est" / photo.stem / "material.json").read_text())
+    assert material["metadata"]["class"] == report["class"]
+    assert "class" not in json.loads(CliRunner().invoke(sa_estimate, [
+        str(photo), "--class", "wood", "--out", str(tmp_path / "wood")]).stdout.splitlines()[-1])
+
+
+def test_an_explicit_model_is_used_for_every_photo():
+    choice = network_choice(str(shipped_model_path("plastic")), "auto")
+    net, chosen = choice.for_photo(np.zeros((3, 256, 256), dtype=np.float32))
+    assert chosen == {"model": str(shipped_model_path("plastic"))}
+
+
+@pytest.mark.parametrize("material, route", [("godot_texture_wood", "wood"),
+                                             ("pbrone_bricks", "general"),
+                                             ("polyhaven_fabric_pattern_07", "general")])
+def test_the_shipped_classifier_routes_its_bundled_training_sets(material, route, tmp_path):
+    """A sanity check on training data (the held-out accuracy is in models/README.md): a
+    majority of 8 renders of a bundled set, under the bundled probes, go to the route it was
+    trained as (on the real sets of the general route the classifier is least sure: 5 of 8
+    bricks)."""
+    (tmp_path / material).symlink_to(BUNDLED_MATERIALS / material)
+    bank = ProbeBank([load_probe(path).radiance for path in find_probes(BUNDLED_PROBES)])
+    sampler = MapSampler(tmp_path, bank, range(len(bank)), 256, 512)
+    photos = sampler.batch(np.random.default_rng(0), 8)["image"]
+    answers = load_classifier(CLASSIFIER_FILE).probabilities(photos).argmax(1)
+    assert (answers == ROUTES.index(route)).sum() >= 5, answers.tolist()

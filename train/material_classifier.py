@@ -1,0 +1,128 @@
+"""The material classifier: which shipped SVBRDF-net should estimate a photo.
+
+The paper trains one SVBRDF-net per material class; so does this project (wood, plastic,
+metal), plus a general network trained on every class and a few real sets. A class network
+beats the general one on its class (models/README.md), so ``sa-estimate`` without a class
+asks this classifier which network to use (``--class auto``).
+
+The classifier sees a photo as the SVBRDF-nets do (train.photos.read_photo: linear RGB in
+[0, 1], S x S) and gives the probability of each of ROUTES: "wood", "plastic", "metal" (the
+class networks) or "general" (a material of none of these classes, for the general network).
+
+A wrong network costs more than a wrong guess of the class: the metal network turns a plastic
+into a mirror. So the network is not the most probable route's but the one of least expected
+cost (``cheapest_route``): ``costs[i][j]``, measured on validation data
+(scripts/measure_route_costs.py) and kept in the classifier file, is the mean relit error of
+network j on photos of route i, and the expected cost of network j is the sum over i of
+p_i costs[i][j]. Its structure is the
+SVBRDF-nets' analysis (train.networks.Analysis) on the photo box filtered to
+``CLASSIFIER_CONFIG.input_size`` and gamma 1/2.2 encoded, then the mean and the maximum of the
+last features over the image, and one linear layer to a logit per route.
+
+A classifier file is a safetensors file (weights in float16; ``format`` = FORMAT, the network
+configuration and the costs in its metadata), read without executing code, like the shipped
+models (train.model_files).
+"""
+
+import json
+from pathlib import Path
+
+import torch
+from safetensors import SafetensorError, safe_open
+from safetensors.torch import load_file
+from torch import nn
+from torch.nn import functional
+
+from render.common.errors import InputError
+from train.checkpoints import load_weights
+from train.model_files import save_weights_file
+from train.networks import Analysis, NetworkConfig
+
+ROUTES = ("wood", "plastic", "metal", "general")
+"""The classifier's answers: a shipped model name each (train.model_files.SHIPPED)."""
+FORMAT = "sa-svbrdf classifier 1"
+CLASSIFIER_CONFIG = NetworkConfig(input_size=128, width=16, max_width=64, levels=5, hidden=0)
+"""128 px in, 4 x 4 x 64 features out (about 0.1 M parameters); ``hidden`` is unused."""
+PHOTO_ENCODING_GAMMA = 2.2
+"""The photo is encoded with 1 / this before the network: perceptual, not linear, contrast."""
+
+
+class MaterialClassifier(nn.Module):
+    """Photo (B, 3, S, S), linear RGB in [0, 1], S a multiple of the configuration's input
+    size -> logits (B, len(ROUTES))."""
+
+    def __init__(self, config=CLASSIFIER_CONFIG):
+        super().__init__()
+        self.config = config
+        self.analysis = Analysis(config)
+        self.head = nn.Linear(2 * config.channels()[-1], len(ROUTES))
+
+    def forward(self, photo):
+        size = self.config.input_size
+        if photo.shape[-1] % size or photo.shape[-2] != photo.shape[-1]:
+            raise ValueError(f"photos of {tuple(photo.shape[-2:])} px are not squares of a "
+                             f"multiple of {size} px")
+        image = functional.avg_pool2d(photo, photo.shape[-1] // size)
+        image = image.clamp(0.0, 1.0) ** (1.0 / PHOTO_ENCODING_GAMMA)
+        _, features = self.analysis(image)  # (B, C, 4, 4)
+        pooled = torch.cat([features.mean((2, 3)), features.amax((2, 3))], dim=1)
+        return self.head(pooled)
+
+    def probabilities(self, photo):
+        """Probabilities of the routes, (B, len(ROUTES)), without gradients: the mean over the
+        photo's 8 quarter turns and mirror images (each is a photo of the turned or mirrored
+        sample under the probe turned or mirrored alike, as likely as the photo itself)."""
+        with torch.no_grad():
+            views = [torch.rot90(image, turns, (2, 3)) for image in (photo, photo.flip(3))
+                     for turns in range(4)]
+            return torch.stack([torch.softmax(self(view), dim=1) for view in views]).mean(0)
+
+
+def cheapest_route(probabilities, costs):
+    """Index of the route whose network has the least expected cost, for probabilities
+    (len(ROUTES),) and costs (len(ROUTES), len(ROUTES)): rows the photo's route, columns the
+    network."""
+    return int(torch.argmin(torch.as_tensor(probabilities, dtype=torch.float64)
+                            @ torch.as_tensor(costs, dtype=torch.float64)))
+
+
+def save_classifier(classifier, path, costs, metadata):
+    """Write the classifier's weights (float16), its ``costs`` (len(ROUTES) x len(ROUTES)
+    nested lists) and ``metadata`` (str -> JSON-able) as a safetensors file, atomically,
+    readable by everyone."""
+    if torch.as_tensor(costs).shape != (len(ROUTES), len(ROUTES)):
+        raise ValueError(f"costs must be {len(ROUTES)} x {len(ROUTES)}")
+    save_weights_file(classifier, path, {"format": FORMAT, "routes": ROUTES, "costs": costs}
+                      | metadata)
+
+
+def load_classifier(path):
+    """The classifier of a file written by save_classifier, in evaluation mode, float32, with
+    its ``costs`` (a float64 tensor) and ``source`` (the file)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "classifier file not found")
+    try:
+        with safe_open(str(path), framework="pt") as file:
+            metadata = file.metadata() or {}
+    except (SafetensorError, OSError, ValueError) as error:
+        raise InputError(path, f"cannot read safetensors file ({error})") from None
+    if metadata.get("format") != FORMAT:
+        raise InputError(path, f"not an sa-svbrdf classifier (expected format '{FORMAT}')")
+    try:
+        routes = tuple(json.loads(metadata["routes"]))
+        config = NetworkConfig(**json.loads(metadata["network"]))
+        costs = torch.tensor(json.loads(metadata["costs"]), dtype=torch.float64)
+    except (KeyError, TypeError, ValueError, RuntimeError) as error:
+        raise InputError(path, f"classifier has no valid configuration ({error})") from None
+    if routes != ROUTES:
+        raise InputError(path, f"classifier answers {list(routes)}, expected {list(ROUTES)}")
+    if costs.shape != (len(ROUTES), len(ROUTES)) or not torch.isfinite(costs).all():
+        raise InputError(path, f"classifier costs are not a finite {len(ROUTES)} x "
+                               f"{len(ROUTES)} matrix")
+    classifier = MaterialClassifier(config)
+    weights = {name: value.float() if value.is_floating_point() else value
+               for name, value in load_file(str(path)).items()}
+    load_weights(classifier, {"model": weights}, path)
+    classifier.costs, classifier.source = costs, str(path)
+    return classifier.eval()

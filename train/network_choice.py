@@ -1,0 +1,72 @@
+"""Which SVBRDF-net estimates a photo: one given network, or a shipped one chosen per photo.
+
+``sa-estimate`` and ``sa-evaluate`` take the same choices, so that what sa-evaluate measures is
+what users get:
+
+- ``--model FILE``: that network for every photo (FixedNetwork);
+- ``--class wood|plastic|metal|general``: that shipped network for every photo;
+- ``--class auto`` (the default): the shipped network the material classifier picks for each
+  photo (ClassRouter; train.material_classifier).
+
+A choice has ``input_size`` (the photo side its networks take; all the shipped networks share
+it) and ``for_photo(photo)``, which returns the network for a (3, S, S) photo and a dict saying
+which one and why (``model``: its file; with the router also ``class`` and
+``class_probabilities``).
+"""
+
+import torch
+
+from render.common.errors import InputError
+from train.material_classifier import ROUTES, cheapest_route, load_classifier
+from train.model_files import MODELS, load_network, shipped_model_path
+
+CLASSIFIER_FILE = MODELS / "material-classifier.safetensors"
+AUTO = "auto"
+
+
+class FixedNetwork:
+    """One network for every photo."""
+
+    def __init__(self, net):
+        self.net = net
+        self.input_size = net.config.input_size
+
+    def for_photo(self, photo):
+        return self.net, {"model": self.net.source}
+
+
+class ClassRouter:
+    """The shipped network the classifier picks for each photo (the least expected cost,
+    train.material_classifier.cheapest_route), loaded when first needed."""
+
+    def __init__(self, classifier, device="cpu"):
+        self.classifier, self.device = classifier.to(device), device
+        self.networks = {}
+        self.input_size = self._network(ROUTES[0]).config.input_size
+
+    def _network(self, route):
+        if route not in self.networks:
+            net = load_network(shipped_model_path(route), self.device)
+            if self.networks and net.config.input_size != self.input_size:
+                raise InputError(net.source, "shipped networks differ in input size")
+            self.networks[route] = net
+        return self.networks[route]
+
+    def for_photo(self, photo):
+        image = torch.as_tensor(photo)[None].to(self.device)
+        probabilities = self.classifier.probabilities(image)[0].cpu()
+        route = ROUTES[cheapest_route(probabilities, self.classifier.costs)]
+        net = self._network(route)
+        return net, {"model": net.source, "class": route,
+                     "class_probabilities": {name: round(float(p), 4)
+                                             for name, p in zip(ROUTES, probabilities)}}
+
+
+def network_choice(model, material_class, device="cpu"):
+    """The choice of the command line: ``model`` (a file or run folder) if given, else the
+    shipped network of ``material_class``, or the classifier's pick for ``auto``."""
+    if model is not None:
+        return FixedNetwork(load_network(model, device))
+    if material_class == AUTO:
+        return ClassRouter(load_classifier(CLASSIFIER_FILE), device)
+    return FixedNetwork(load_network(shipped_model_path(material_class), device))
