@@ -367,13 +367,17 @@ def _touched_entries(coordinates, layout):
     batch, table = coordinates.shape[0], layout.table
     limit = (layout.size - 2).to(coordinates.device)[:, None, None, :]
     corner = torch.minimum(torch.floor(coordinates.detach()).long().clamp(min=0), limit)
-    touched = torch.zeros(batch, table, table, dtype=torch.bool, device=coordinates.device)
+    corners = torch.zeros(batch, table, table, dtype=torch.bool, device=coordinates.device)
     sample = torch.arange(batch, device=coordinates.device)[:, None, None].expand(
         corner.shape[:3])
-    for dx in (-1, 0, 1, 2):
-        for dy in (-1, 0, 1, 2):
-            touched[sample, (corner[..., 1] + dy).clamp(0, table - 1),
-                    (corner[..., 0] + dx).clamp(0, table - 1)] = True
+    corners[sample, corner[..., 1], corner[..., 0]] = True
+    # A lookup with its lower-left corner at entry c touches c - 1 ... c + 2 on each axis:
+    # dilate the corners (entries beyond the table edge are never needed: c <= size - 2).
+    touched = torch.zeros_like(corners)
+    for dy in (-1, 0, 1, 2):
+        for dx in (-1, 0, 1, 2):
+            touched[:, max(dy, 0):table + min(dy, 0), max(dx, 0):table + min(dx, 0)] |= \
+                corners[:, max(-dy, 0):table - max(dy, 0), max(-dx, 0):table - max(dx, 0)]
     return touched.nonzero()
 
 
