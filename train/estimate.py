@@ -25,7 +25,8 @@ and ``OUT/report.html``, a page showing per photo the photo, the full-resolution
 parameters with units and color spaces, and the relit images. The specular albedo and roughness
 come from the photo's centre square read at the network's input size (train.photos.read_photo),
 the estimate that sa-evaluate measures. The command prints a JSON line per photo with the
-milliseconds the network took (input size, full resolution). Every photo is read and checked
+network chosen and the milliseconds it took (at input size, the classifier's choice included;
+full resolution). Every photo is read and checked
 before anything is written; an existing output folder is refused.
 """
 

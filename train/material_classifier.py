@@ -14,10 +14,11 @@ into a mirror. So the network is not the most probable route's but the one of le
 cost (``cheapest_route``): ``costs[i][j]``, measured on validation data
 (scripts/measure_route_costs.py) and kept in the classifier file, is the mean relit error of
 network j on photos of route i, and the expected cost of network j is the sum over i of
-p_i costs[i][j]. Its structure is the
-SVBRDF-nets' analysis (train.networks.Analysis) on the photo box filtered to
-``CLASSIFIER_CONFIG.input_size`` and gamma 1/2.2 encoded, then the mean and the maximum of the
-last features over the image, and one linear layer to a logit per route.
+p_i costs[i][j].
+
+Structure: the SVBRDF-nets' analysis blocks (train.networks.Analysis) on the photo box
+filtered to ``CLASSIFIER_CONFIG.input_size`` and gamma 1/2.2 encoded, then the mean and the
+maximum of the last features over the image, and one linear layer to a logit per route.
 
 A classifier file is a safetensors file (weights in float16; ``format`` = FORMAT, the network
 configuration and the costs in its metadata), read without executing code, like the shipped
