@@ -6,7 +6,8 @@ route's folder, at a random scale of 1 or 2, under a random probe of ``--probes`
 rotation, auto-exposed), and takes one Adam step of the cross entropy. The random choices of
 step k come from a generator seeded by (seed, k), and a checkpoint (``RUN/checkpoint.pt``,
 read back with torch's safe loader) is written every ``--checkpoint-every`` steps, so a run
-that is cut off continues where it stopped when started again with the same command.
+that is cut off continues where it stopped when started again with the same command (a larger
+``--steps`` trains on, with the learning-rate schedule of the first start).
 
 At the end it writes ``RUN/loss.png`` (the loss curve), exports the classifier with the cost
 matrix of ``--costs`` (written by scripts/measure_route_costs.py) to ``--export`` and, with ``--test ROUTE=FOLDER`` and ``--test-probes``, prints as JSON the confusion matrix

@@ -1,6 +1,8 @@
 """The material classifier and the per-photo choice of a shipped network (``--class auto``)."""
 
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -107,3 +109,35 @@ def test_the_shipped_classifier_routes_its_bundled_training_sets(material, route
     photos = sampler.batch(np.random.default_rng(0), 8)["image"]
     answers = load_classifier(CLASSIFIER_FILE).probabilities(photos).argmax(1)
     assert (answers == ROUTES.index(route)).sum() >= 5, answers.tolist()
+
+
+def test_the_classifier_training_script_resumes_and_exports(tmp_path):
+    """scripts/train_material_classifier.py: a run started again continues from its checkpoint
+    (a finished run does not train again) and exports a classifier with the given costs."""
+    maps = []
+    for route, material in zip(ROUTES, ("godot_texture_wood", "polyhaven_fabric_pattern_07",
+                                        "pbrone_bricks", "pbrone_bricks")):
+        (tmp_path / route).mkdir()
+        (tmp_path / route / material).symlink_to(BUNDLED_MATERIALS / material)
+        maps += ["--maps", f"{route}={tmp_path / route}"]
+    costs = [[float(i != j) for j in range(len(ROUTES))] for i in range(len(ROUTES))]
+    (tmp_path / "costs.json").write_text(json.dumps({"routes": ROUTES, "costs": costs,
+                                                     "validation": "test"}))
+    command = [sys.executable, str(REPO / "scripts" / "train_material_classifier.py"), *maps,
+               "--probes", str(BUNDLED_PROBES), "--run", str(tmp_path / "run"),
+               "--per-route", "1", "--checkpoint-every", "1"]
+    first = subprocess.run(command + ["--steps", "2"], cwd=REPO, capture_output=True, text=True)
+    assert first.returncode == 0, first.stderr
+    state = torch.load(tmp_path / "run" / "checkpoint.pt", weights_only=True)
+    assert state["step"] == 2 and len(state["history"]) == 2
+    refused = subprocess.run(command + ["--steps", "2", "--export", str(tmp_path / "c.st")],
+                             cwd=REPO, capture_output=True, text=True)
+    assert refused.returncode != 0 and "--export needs --costs" in refused.stderr
+    more = subprocess.run(command + ["--steps", "3", "--costs", str(tmp_path / "costs.json"),
+                                     "--export", str(tmp_path / "c.safetensors")],
+                          cwd=REPO, capture_output=True, text=True)
+    assert more.returncode == 0, more.stderr
+    state = torch.load(tmp_path / "run" / "checkpoint.pt", weights_only=True)
+    assert state["step"] == 3 and [step for step, _ in state["history"]] == [1, 2, 3]
+    assert load_classifier(tmp_path / "c.safetensors").costs.tolist() == costs
+    assert (tmp_path / "run" / "loss.png").stat().st_size > 0
