@@ -20,7 +20,7 @@ import click
 
 from render.common.atomic_files import atomic_path
 from train.estimate_evaluation import EvaluationConfig, run
-from train.material_classifier import ROUTES
+from train.material_classifier import ROUTES, route_folders
 from train.model_files import load_network, shipped_model_path
 from train.network_choice import FixedNetwork
 
@@ -32,9 +32,10 @@ from train.network_choice import FixedNetwork
 @click.option("--samples", default=40, show_default=True, help="Photos per route.")
 @click.option("--out", required=True, type=click.Path(), help="Cost matrix JSON file.")
 def main(folders, probes, samples, out):
-    folders = dict(pair.split("=", 1) for pair in folders)
-    if sorted(folders) != sorted(ROUTES):
-        raise click.BadParameter(f"give one folder per route {list(ROUTES)}")
+    try:
+        folders = route_folders(folders)
+    except ValueError as error:
+        raise click.BadParameter(str(error)) from None
     networks = {name: FixedNetwork(load_network(shipped_model_path(name))) for name in ROUTES}
     costs, naive = [], []
     with tempfile.TemporaryDirectory() as work:

@@ -10,8 +10,9 @@ that is cut off continues where it stopped when started again with the same comm
 ``--steps`` trains on, with the learning-rate schedule of the first start).
 
 At the end it writes ``RUN/loss.png`` (the loss curve), exports the classifier with the cost
-matrix of ``--costs`` (written by scripts/measure_route_costs.py) to ``--export`` and, with ``--test ROUTE=FOLDER`` and ``--test-probes``, prints as JSON the confusion matrix
-over ``--test-samples`` photos per route rendered the same way from those (held-out) sets.
+matrix of ``--costs`` (written by scripts/measure_route_costs.py) to ``--export`` and, with
+``--test ROUTE=FOLDER`` and ``--test-probes``, prints as JSON the confusion matrix over
+``--test-samples`` photos per route rendered the same way from those (held-out) sets.
 
     .venv/bin/python scripts/train_material_classifier.py --maps wood=MAPS/wood \
         --maps plastic=MAPS/plastic --maps metal=MAPS/metal --maps general=REAL_SETS \
@@ -36,19 +37,12 @@ from render.common.atomic_files import atomic_path  # noqa: E402
 from render.common.probes import find_probes, load_probe  # noqa: E402
 from render.torch_renderer.renderer import ProbeBank  # noqa: E402
 from train.map_samples import MapSampler  # noqa: E402
-from train.material_classifier import ROUTES, MaterialClassifier, save_classifier  # noqa: E402
+from train.material_classifier import (ROUTES, MaterialClassifier, route_folders,  # noqa: E402
+                                       save_classifier)
 
 PHOTO_SIZE = 256
 RENDER_SIZE = 512
 CROP_SCALES = (1, 2)
-
-
-def route_folders(pairs):
-    """{route: folder} of ``ROUTE=FOLDER`` options; every route must be given."""
-    folders = dict(pair.split("=", 1) for pair in pairs)
-    if sorted(folders) != sorted(ROUTES):
-        raise click.BadParameter(f"give one folder per route {list(ROUTES)}, got {sorted(folders)}")
-    return folders
 
 
 def samplers(folders, probes_folder):
@@ -100,6 +94,11 @@ def main(maps, probes, run_folder, steps, per_route, learning_rate, seed, checkp
          export, costs, tests, test_probes, test_samples):
     if export and not costs:
         raise click.UsageError("--export needs --costs")
+    try:
+        folders = route_folders(maps)
+        test_folders = route_folders(tests) if tests else None
+    except ValueError as error:
+        raise click.BadParameter(str(error)) from None
     torch.manual_seed(seed)
     run = Path(run_folder)
     run.mkdir(parents=True, exist_ok=True)
@@ -114,7 +113,7 @@ def main(maps, probes, run_folder, steps, per_route, learning_rate, seed, checkp
         schedule.load_state_dict(state["schedule"])
         start, history = state["step"], [tuple(item) for item in state["history"]]
         torch.set_rng_state(state["torch_rng"])
-    route_samplers = samplers(route_folders(maps), probes)
+    route_samplers = samplers(folders, probes)
     classifier.train()
     for step in tqdm(range(start, steps), initial=start, total=steps, desc="classifier"):
         photos, labels = minibatch(route_samplers, np.random.default_rng([seed, step]),
@@ -140,10 +139,9 @@ def main(maps, probes, run_folder, steps, per_route, learning_rate, seed, checkp
             "costs_measured_on": measured["validation"],
             "recipe": f"scripts/train_material_classifier.py, {steps} steps of {per_route} "
                       f"photos per route, lr {learning_rate}, seed {seed}",
-            "trained_on": {route: str(Path(folder)) for route, folder in
-                           route_folders(maps).items()}})
-    if tests:
-        test_samplers = samplers(route_folders(tests), test_probes)
+            "trained_on": folders})
+    if test_folders:
+        test_samplers = samplers(test_folders, test_probes)
         confusion = np.zeros((len(ROUTES), len(ROUTES)), dtype=int)
         rng = np.random.default_rng([seed, 0, 1])  # test photos; training draws (seed, step)
         for truth, sampler in enumerate(test_samplers):

@@ -29,14 +29,11 @@ import json
 from pathlib import Path
 
 import torch
-from safetensors import SafetensorError, safe_open
-from safetensors.torch import load_file
 from torch import nn
 from torch.nn import functional
 
 from render.common.errors import InputError
-from train.checkpoints import load_weights
-from train.model_files import save_weights_file
+from train.model_files import load_weights_file, model_metadata, save_weights_file
 from train.networks import Analysis, NetworkConfig
 
 ROUTES = ("wood", "plastic", "metal", "general")
@@ -79,6 +76,14 @@ class MaterialClassifier(nn.Module):
             return torch.stack([torch.softmax(self(view), dim=1) for view in views]).mean(0)
 
 
+def route_folders(pairs):
+    """{route: folder} of ``ROUTE=FOLDER`` strings, one for every route of ROUTES."""
+    folders = dict(pair.split("=", 1) for pair in pairs)
+    if sorted(folders) != sorted(ROUTES):
+        raise ValueError(f"give one folder per route {list(ROUTES)}, got {sorted(folders)}")
+    return folders
+
+
 def cheapest_route(probabilities, costs):
     """Index of the route whose network has the least expected cost, for probabilities
     (len(ROUTES),) and costs (len(ROUTES), len(ROUTES)): rows the photo's route, columns the
@@ -103,11 +108,7 @@ def load_classifier(path):
     path = Path(path)
     if not path.is_file():
         raise InputError(path, "classifier file not found")
-    try:
-        with safe_open(str(path), framework="pt") as file:
-            metadata = file.metadata() or {}
-    except (SafetensorError, OSError, ValueError) as error:
-        raise InputError(path, f"cannot read safetensors file ({error})") from None
+    metadata = model_metadata(path)
     if metadata.get("format") != FORMAT:
         raise InputError(path, f"not an sa-svbrdf classifier (expected format '{FORMAT}')")
     try:
@@ -122,8 +123,6 @@ def load_classifier(path):
         raise InputError(path, f"classifier costs are not a finite {len(ROUTES)} x "
                                f"{len(ROUTES)} matrix")
     classifier = MaterialClassifier(config)
-    weights = {name: value.float() if value.is_floating_point() else value
-               for name, value in load_file(str(path)).items()}
-    load_weights(classifier, {"model": weights}, path)
+    load_weights_file(classifier, path)
     classifier.costs, classifier.source = costs, str(path)
     return classifier.eval()

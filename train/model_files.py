@@ -59,7 +59,8 @@ def save_weights_file(module, path, metadata):
 
 
 def model_metadata(path):
-    """The metadata dict (str -> str) of a shipped model file."""
+    """The metadata dict (str -> str) of a safetensors file (a shipped model, the material
+    classifier)."""
     try:
         with safe_open(str(path), framework="pt") as file:
             return file.metadata() or {}
@@ -90,17 +91,28 @@ def load_network(path, device="cpu"):
     return net.to(device).eval()
 
 
-def _shipped_network(path):
+def shipped_network_config(path):
+    """The NetworkConfig of a shipped model file, read from its metadata (no weights)."""
+    path = Path(path)
     if not path.is_file():
         raise InputError(path, "model file not found")
     metadata = model_metadata(path)
     if metadata.get("format") != FORMAT:
         raise InputError(path, f"not an sa-svbrdf model (expected format '{FORMAT}')")
     try:
-        net = SVBRDFNet(NetworkConfig(**json.loads(metadata["network"])))
+        return NetworkConfig(**json.loads(metadata["network"]))
     except (KeyError, TypeError, ValueError) as error:
         raise InputError(path, f"model has no valid network configuration ({error})") from None
+
+
+def load_weights_file(module, path):
+    """Load the (float16) weights of a safetensors file into ``module`` as float32."""
     weights = {name: value.float() if value.is_floating_point() else value
                for name, value in load_file(str(path)).items()}
-    load_weights(net, {"model": weights}, path)
+    load_weights(module, {"model": weights}, path)
+
+
+def _shipped_network(path):
+    net = SVBRDFNet(shipped_network_config(path))
+    load_weights_file(net, path)
     return net

@@ -18,7 +18,7 @@ import torch
 
 from render.common.errors import InputError
 from train.material_classifier import ROUTES, cheapest_route, load_classifier
-from train.model_files import MODELS, load_network, shipped_model_path
+from train.model_files import MODELS, load_network, shipped_model_path, shipped_network_config
 
 CLASSIFIER_FILE = MODELS / "material-classifier.safetensors"
 AUTO = "auto"
@@ -42,12 +42,12 @@ class ClassRouter:
     def __init__(self, classifier, device="cpu"):
         self.classifier, self.device = classifier.to(device), device
         self.networks = {}
-        self.input_size = self._network(ROUTES[0]).config.input_size
+        self.input_size = shipped_network_config(shipped_model_path(ROUTES[0])).input_size
 
     def _network(self, route):
         if route not in self.networks:
             net = load_network(shipped_model_path(route), self.device)
-            if self.networks and net.config.input_size != self.input_size:
+            if net.config.input_size != self.input_size:
                 raise InputError(net.source, "shipped networks differ in input size")
             self.networks[route] = net
         return self.networks[route]
