@@ -7,7 +7,10 @@ specular lobe replaced by an alternative: a Ward alpha from ``ALPHAS`` and the t
 colour times a factor t (searched on the grid ``FACTORS``), with either the true albedo or the
 true albedo rescaled and offset (scale * albedo + offset, least squares given t: a brighter
 specular reflection can stand in for a lighter albedo). Of each kind and alpha the alternative
-whose photo is closest to the truth's is kept. Photos are torch renders under the sample's own
+whose photo is closest to the truth's is kept. Alternatives are relative quantities, as the
+truth and every estimate are: scaled so that their mean albedo is the truth's, so glow moved
+from the specular lobe into the albedo also makes the whole material darker relative to the
+truth, as ``sa-evaluate`` would see it. Photos are torch renders under the sample's own
 probe, auto-exposed and encoded as the 8-bit values ``sa-evaluate`` saves (gamma 1/2.2); their
 difference is the RMSE in 8-bit levels. Each alternative is then relit under ``sa-evaluate``'s
 novel probes with the truth's exposure, and compared with the truth's relighting. The renderer
@@ -35,7 +38,6 @@ against photo difference, every alternative) into ``--out``; prints the summary 
 
 import json
 import math
-from dataclasses import replace
 from pathlib import Path
 
 import click
@@ -122,8 +124,10 @@ def sample_alternatives(truth, bank, own_index, novel_index, novel_rotation, sup
             scale, offset = albedo_fits(true_hdr[0], diffuse[0], white[0], parts).unbind(1)
         else:
             scale, offset = torch.ones_like(factors), torch.zeros_like(factors)
-        # the alternative's albedo scale * truth + offset, relative again (mean 0.5)
-        renormalize = 0.5 / (scale * mean_albedo + offset)
+        # the alternative's albedo scale * truth + offset and specular albedo factor * truth,
+        # both scaled so that its mean albedo is the truth's: relative quantities, as the
+        # truth's and an estimate's are (the photo's comparison is blind to that scale)
+        renormalize = mean_albedo / (scale * mean_albedo + offset)
         log_specular = (float(truth["log_specular"][0].mean())
                         + torch.log(factors * renormalize.clamp(min=1e-12)))
         valid = ((scale > 0) & (scale * lowest_albedo + offset > 0)
@@ -136,8 +140,8 @@ def sample_alternatives(truth, bank, own_index, novel_index, novel_rotation, sup
                                 + parts[candidates])
         photo_rmse = torch.sqrt(((photos - true_photo) ** 2).mean((1, 2, 3)))
         best = int(candidates[torch.argmin(photo_rmse)])
-        relit_hdr = (scale[best] * diffuse[1:] + offset[best] * white[1:]
-                     + factors[best] * specular * unit[alpha][1:])
+        relit_hdr = renormalize[best] * (scale[best] * diffuse[1:] + offset[best] * white[1:]
+                                         + factors[best] * specular * unit[alpha][1:])
         relit = expose(relit_hdr, reference=true_hdr[1:])
         results.append({"alpha": alpha, "albedo_free": albedo_free,
                         "factor": float(factors[best] * renormalize[best]),
