@@ -54,7 +54,7 @@ from render.common.exposure import expose  # noqa: E402
 from render.common.probes import find_probes, load_probe  # noqa: E402
 from render.torch_renderer.renderer import ProbeBank, render  # noqa: E402
 from train.estimate_evaluation import (EvaluationConfig, held_out_probes,  # noqa: E402
-                                       naive_estimate, novel_lightings, relit_rmse, relit_under,
+                                       naive_estimate, novel_lightings, relit_rmse,
                                        test_samples)
 from train.losses import maps_at_size  # noqa: E402
 from train.photos import PHOTO_GAMMA  # noqa: E402
@@ -222,8 +222,7 @@ def measure(cfg, levels):
                                                       own, names, held_out, cfg.relights)
         true_hdr, alternatives, bound = sample_alternatives(
             truth, bank, names.index(own), novel_index, novel_rotation, support, levels)
-        photo = expose(true_hdr[:1])[0]
-        truth_relit_hdr = relit_under(truth, bank, novel_index, novel_rotation)
+        photo, truth_relit_hdr = expose(true_hdr[:1])[0], true_hdr[1:]
         naive = relit_rmse(naive_estimate(photo), bank, novel_index, novel_rotation,
                            truth_relit_hdr, expose(truth_relit_hdr))
         records.append({"name": name, "probe": own,

@@ -106,11 +106,7 @@ def load_classifier(path):
     """The classifier of a file written by save_classifier, in evaluation mode, float32, with
     its ``costs`` (a float64 tensor) and ``source`` (the file)."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError(path, "classifier file not found")
-    metadata = model_metadata(path)
-    if metadata.get("format") != FORMAT:
-        raise InputError(path, f"not an sa-svbrdf classifier (expected format '{FORMAT}')")
+    metadata = model_metadata(path, FORMAT, "classifier")
     try:
         routes = tuple(json.loads(metadata["routes"]))
         config = NetworkConfig(**json.loads(metadata["network"]))

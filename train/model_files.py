@@ -58,14 +58,21 @@ def save_weights_file(module, path, metadata):
         tmp.chmod(0o644)
 
 
-def model_metadata(path):
-    """The metadata dict (str -> str) of a safetensors file (a shipped model, the material
-    classifier)."""
+def model_metadata(path, file_format, what):
+    """The metadata dict (str -> str) of the safetensors file ``path`` (a shipped model, the
+    material classifier), which must exist and declare ``file_format``; ``what`` names the
+    kind of file in the one-line errors."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, f"{what} file not found")
     try:
         with safe_open(str(path), framework="pt") as file:
-            return file.metadata() or {}
+            metadata = file.metadata() or {}
     except (SafetensorError, OSError, ValueError) as error:
         raise InputError(path, f"cannot read safetensors file ({error})") from None
+    if metadata.get("format") != file_format:
+        raise InputError(path, f"not an sa-svbrdf {what} (expected format '{file_format}')")
+    return metadata
 
 
 def load_network(path, device="cpu"):
@@ -93,12 +100,7 @@ def load_network(path, device="cpu"):
 
 def shipped_network_config(path):
     """The NetworkConfig of a shipped model file, read from its metadata (no weights)."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(path, "model file not found")
-    metadata = model_metadata(path)
-    if metadata.get("format") != FORMAT:
-        raise InputError(path, f"not an sa-svbrdf model (expected format '{FORMAT}')")
+    metadata = model_metadata(path, FORMAT, "model")
     try:
         return NetworkConfig(**json.loads(metadata["network"]))
     except (KeyError, TypeError, ValueError) as error:
