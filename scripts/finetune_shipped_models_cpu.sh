@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Fine-tunes shipped networks on a CPU (models/README.md, "stage 3"): one network of the
-# three at a time (NETWORK: homogeneous or albedo), starting from the shipped file, with the
+# three at a time (NETWORK: homogeneous or albedo), starting from the shipped file (or from
+# INIT_DIR/svbrdf-CLASS.safetensors, an earlier fine-tune's output), with the
 # relit loss (sa-train --relit-loss-weight) added to the parameter losses; labeled minibatches
 # rendered on the fly under the 26 training probes from 200 procedural sets of the class
 # (make-materials seeds 0, 2, 3, 4; seed 1 makes the held-out sets), or for `general` from the
@@ -9,7 +10,8 @@
 #
 # Environment: NETWORK (default homogeneous; a comma-separated list trains several), EPOCHS
 # (of 200 steps, default 10), RELIT_WEIGHT (default 300), LEARNING_RATE (default 0.0005),
-# ALBEDO_LOSS (linear or log, default linear), REAL_SETS (general only: a folder of the real
+# ALBEDO_LOSS (linear or log, default linear), SPECULAR (own or mix: sa-train
+# --mix-specular; default own), REAL_SETS (general only: a folder of the real
 # sets the card lists).
 #
 #   bash scripts/finetune_shipped_models_cpu.sh WORK PROBES_TRAIN OUT_DIR CLASS...
@@ -18,6 +20,7 @@ WORK=$1 PROBES=$2 OUT_DIR=$3
 shift 3
 NETWORK=${NETWORK:-homogeneous} EPOCHS=${EPOCHS:-10} RELIT_WEIGHT=${RELIT_WEIGHT:-300}
 LEARNING_RATE=${LEARNING_RATE:-0.0005} ALBEDO_LOSS=${ALBEDO_LOSS:-linear} BIN=${BIN:-.venv/bin}
+SPECULAR=${SPECULAR:-own} INIT_DIR=${INIT_DIR:-models}
 mkdir -p "$OUT_DIR"
 link_sets() {  # link_sets CLASS SEEDS...: make the sets if missing, link them into the maps
     local class=$1
@@ -41,12 +44,13 @@ for class in "$@"; do
     else
         link_sets "$class" 0 2 3 4
     fi
-    run="$WORK/runs/$class-${NETWORK//,/-}-$ALBEDO_LOSS"
-    "$BIN/sa-train" --init-from "models/svbrdf-$class.safetensors" --train-networks "$NETWORK" \
+    run="$WORK/runs/$class-${NETWORK//,/-}-$ALBEDO_LOSS-$SPECULAR-specular"
+    "$BIN/sa-train" --init-from "$INIT_DIR/svbrdf-$class.safetensors" --train-networks "$NETWORK" \
         --relit-loss-weight "$RELIT_WEIGHT" --relit-loss-size 64 --albedo-loss "$ALBEDO_LOSS" \
-        --labeled-maps "$WORK/maps/$class" --probes "$PROBES" --out "$run" --network compact \
-        --labeled-epochs "$EPOCHS" --self-augmented-epochs 0 --learning-rate "$LEARNING_RATE" \
-        --lr-gamma 1e-3 --epoch-samples 3200 --checkpoint-every 200 --log-every 50
+        --"$SPECULAR"-specular --labeled-maps "$WORK/maps/$class" --probes "$PROBES" \
+        --out "$run" --network compact --labeled-epochs "$EPOCHS" --self-augmented-epochs 0 \
+        --learning-rate "$LEARNING_RATE" --lr-gamma 1e-3 --epoch-samples 3200 \
+        --checkpoint-every 200 --log-every 50
     "$BIN/python" scripts/export_model.py "$run" "$OUT_DIR/svbrdf-$class.safetensors" \
-        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, from models/svbrdf-$class.safetensors"
+        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, $SPECULAR specular, from $INIT_DIR/svbrdf-$class.safetensors"
 done

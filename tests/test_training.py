@@ -397,6 +397,36 @@ def test_a_crop_at_scale_two_is_the_whole_map_box_filtered_to_half_its_size():
         MapSampler(BUNDLED_MATERIALS, bank, [0], size=16, render_size=32, crop_scales=(1, 3))
 
 
+def test_mixed_specular_labels_pair_each_texture_with_other_materials_specular():
+    """Crops that cover the whole 16 px map: the relative specular label is the specular
+    material's albedo over twice the texture's mean albedo, the roughness is the specular
+    material's, and without mixing every sample keeps its own."""
+    bank = ProbeBank([load_probe(path).radiance for path in find_probes(BUNDLED_PROBES)])
+    own = MapSampler(BUNDLED_MATERIALS, bank, [0], size=16, render_size=16)
+    mixed = MapSampler(BUNDLED_MATERIALS, bank, [0], size=16, render_size=16,
+                       mix_specular=True)
+    materials = {m.name: m for m in mixed.materials}
+    pairs = set()
+    for sampler in (own, mixed):
+        batch = sampler.batch(np.random.default_rng(11), 24)
+        for i, sample in enumerate(batch["provenance"]):
+            texture = materials[sample["material"]]
+            specular = materials[sample["specular_from"]]
+            expected = np.log(specular.specular / (2 * texture.albedo.mean(dtype=np.float64)))
+            np.testing.assert_allclose(batch["log_specular"][i].numpy(), expected, rtol=1e-5)
+            assert batch["log_roughness"][i, 0].item() == pytest.approx(
+                np.log(specular.roughness), rel=1e-6)
+            if sampler is own:
+                assert sample["specular_from"] == sample["material"]
+            else:
+                pairs.add((sample["material"], sample["specular_from"]))
+    assert len(pairs) >= 7  # of the 9 pairings of 3 materials
+    low, high = mixed.log_specular_range()
+    every = [np.log(b.specular / (2 * a.albedo.mean(dtype=np.float64)))
+             for a in materials.values() for b in materials.values()]
+    assert (low, high) == pytest.approx((np.min(every), np.max(every)), rel=1e-6)
+
+
 def test_sa_evaluate_takes_the_test_split_of_datasets_in_order(dataset, tmp_path):
     model = tmp_path / "tiny.safetensors"
     save_model(SVBRDFNet(NetworkConfig(input_size=32, width=4, max_width=16, levels=3,

@@ -97,6 +97,10 @@ class TrainConfig:
     """With ``labeled_maps``: each crop spans the input size times one of these whole numbers
     of map pixels, box filtered to the input size (train.map_samples): (1, 2) shows textures
     at their scale and at half of it. ``render_size`` must hold the largest crop."""
+    mix_specular: bool = False
+    """With ``labeled_maps``: each sample takes the specular albedo and roughness of a random
+    material of the folder, not only its own (train.map_samples: with one pair per material,
+    the network learns which texture has which pair instead of reading the reflection)."""
     epoch_samples: int = 3200
     """With ``labeled_maps``: labeled samples per epoch."""
     unlabeled: str | None = None
@@ -155,7 +159,7 @@ class Run:
         if cfg.labeled_maps is not None:
             self.maps = MapSampler(cfg.labeled_maps, self.probes, self.augmentation_probes,
                                    cfg.network.input_size, cfg.render_size, cfg.max_view_angle,
-                                   cfg.crop_scales)
+                                   cfg.crop_scales, cfg.mix_specular)
             steps_per_epoch = cfg.epoch_samples // cfg.batch_size
             self.log_specular_range = self.maps.log_specular_range()
         else:

@@ -28,6 +28,9 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
               help="With --labeled-maps: comma-separated whole numbers; a crop spans the input "
                    "size times one of them, box filtered down (1,2: textures at their scale "
                    "and at half of it).")
+@click.option("--mix-specular/--own-specular", default=False, show_default=True,
+              help="With --labeled-maps: give each sample the specular albedo and roughness "
+                   "of a random material of the folder (not only its own texture's).")
 @click.option("--epoch-samples", default=3200, show_default=True,
               help="With --labeled-maps: labeled samples per epoch.")
 @click.option("--init-from", type=click.Path(), default=None,
