@@ -18,11 +18,13 @@ docs/torch-renderer.md) in place of Mitsuba, so every minibatch sees new lightin
    within ``max_view_angle`` of the normal, auto-exposed and clamped to [0, 1].
 
 Why ``mix_specular``: a material has one specular albedo and one roughness, so N materials give
-the network only N specular pairs, each tied to one texture. The plastic network shipped before
-2026-12 (400 procedural sets) learned that tie: its log roughness correlates with the truth at
-+0.48 on 80 crops of its training sets and at -0.34 on 80 of unseen ones (make-materials seed 9;
-both under the training probes), where a constant would do better. Mixed, every texture is seen with every pair of the folder, and the pair
-has to be read from the reflection.
+the network only N specular pairs, each tied to one texture. The plastic network shipped until
+2026-12-01 (400 procedural sets) learned that tie: its log roughness correlates with the truth
+at +0.48 on 80 crops of its training sets and at -0.34 on 80 of unseen ones (make-materials
+seed 9; both under the training probes), where a constant would do better. Mixed, every texture
+is seen with every pair of the folder, and the pair has to be read from the reflection. It
+also hides real ties: on procedural wood, whose finish sets both roughness and relief, mixing
+made the network worse (models/README.md).
 
 Rendering the relative albedos directly is exact: the exposure cancels any common scale. Every
 choice comes from the numpy generator given, so a minibatch is a function of that generator's
@@ -92,7 +94,8 @@ class MapSampler:
                      torch.exp(labels["log_roughness"][:, 0]), self.probes, probe_index,
                      rotation, view)
         provenance = [{"material": crop["material"], "specular_from": crop["specular_from"],
-                       "probe_index": int(p), "rotation_deg": float(r)} for crop, p, r in zip(crops, probe_index, rotation)]
+                       "probe_index": int(p), "rotation_deg": float(r)}
+                      for crop, p, r in zip(crops, probe_index, rotation)]
         return {"image": expose(hdr)} | labels | {"provenance": provenance}
 
     def _choice(self, rng):
