@@ -63,12 +63,11 @@ class MapSampler:
         """(lowest, highest) log relative specular albedo over the materials, each taken
         relative to its whole map (a crop's scale differs a little); with ``mix_specular``,
         over every pairing of one material's specular albedo with another's albedo."""
-        scales = np.array([2.0 * np.mean(m.albedo, dtype=np.float64) for m in self.materials])
-        log_specular = [np.log(np.asarray(m.specular, np.float64)) for m in self.materials]
-        if self.mix_specular:
-            values = np.subtract.outer(np.concatenate(log_specular), np.log(scales))
-        else:
-            values = np.concatenate([s - np.log(c) for s, c in zip(log_specular, scales)])
+        log_specular = np.log([np.asarray(m.specular, np.float64) for m in self.materials])
+        log_scale = np.log([2.0 * np.mean(m.albedo, dtype=np.float64) for m in self.materials])
+        # pairings[i, c, j]: channel c of material i's specular albedo relative to material j's
+        pairings = np.subtract.outer(log_specular, log_scale)
+        values = pairings if self.mix_specular else np.diagonal(pairings, axis1=0, axis2=2)
         return float(values.min()), float(values.max())
 
     def batch(self, rng, count, shard=list):
