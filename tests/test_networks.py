@@ -1,5 +1,7 @@
 """SVBRDF-net: shapes, ranges, skip links, configuration checks, and the paper's optimizer."""
 
+import dataclasses
+
 import pytest
 import torch
 
@@ -59,6 +61,21 @@ def test_skip_links_carry_fine_detail_to_the_output():
     assert difference[16, 16] > 10 * difference[0, 0]
 
 
+def test_mean_pooled_homogeneous_network_reads_the_bottleneck_wherever_a_feature_lies():
+    """Averaged over positions, the bottleneck gives the same output when its positions are
+    permuted; flattened (the paper's), it does not."""
+    torch.manual_seed(0)
+    image = torch.rand(2, 3, 32, 32)
+    for pooling, invariant in (("mean", True), ("flatten", False)):
+        net = HomogeneousNet(dataclasses.replace(TINY, homogeneous_pooling=pooling)).eval()
+        _, bottleneck = net.analysis(image)  # (2, 16, 4, 4)
+        flipped = bottleneck.flip(2, 3)
+        pooled = [b.mean((2, 3)) if pooling == "mean" else b for b in (bottleneck, flipped)]
+        outputs = [net.synthesis(b) for b in pooled]
+        assert torch.allclose(net(image), outputs[0], atol=1e-6)
+        assert torch.allclose(outputs[0], outputs[1], atol=1e-6) == invariant, pooling
+
+
 def test_separate_networks_per_output_type():
     net = SVBRDFNet(TINY)
     albedo_weights = {id(p) for p in net.albedo.parameters()}
@@ -69,6 +86,8 @@ def test_separate_networks_per_output_type():
 def test_configuration_checks():
     with pytest.raises(ValueError, match="divisible"):
         NetworkConfig(input_size=100, levels=3)
+    with pytest.raises(ValueError, match="homogeneous_pooling 'max' is not one of flatten, mean"):
+        NetworkConfig(homogeneous_pooling="max")
     size = TINY.input_size
     with pytest.raises(ValueError, match=rf"expected images of shape \(B, 3, {size}, {size}\), "
                                          rf"got \(1, 3, 64, 64\)"):

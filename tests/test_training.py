@@ -22,7 +22,7 @@ from train.cli.sa_evaluate import main as sa_evaluate
 from train.cli.sa_train import main as sa_train
 from train.losses import losses, relit_loss
 from train.map_samples import MapSampler
-from train.model_files import save_model
+from train.model_files import load_network, save_model
 from train.networks import NetworkConfig, SVBRDFNet
 from train.schedule import LABELED, SELF_AUGMENTED, Schedule
 from train.self_augmentation import random_lightings, self_augmented_batch
@@ -336,6 +336,36 @@ def test_training_one_network_alone_leaves_the_others_as_they_were(trained_run, 
     assert changed == {"homogeneous"}  # weights and batch norm statistics of the map networks
     wrong = train(dataset, tmp_path / "wrong", "--train-networks", "homogeneous,specular")
     assert wrong.exit_code != 0 and "name some of homogeneous, albedo, normal" in wrong.output
+
+
+def test_a_mean_pooled_homogeneous_network_starts_fresh_beside_loaded_map_networks(
+        trained_run, dataset, tmp_path):
+    """--init-from a model whose homogeneous network flattens its bottleneck, into a run whose
+    homogeneous network averages it: the map networks are loaded, the homogeneous network is
+    new and trains; without training it, or with another difference, the run is refused."""
+    result = train(dataset, tmp_path / "mean", "--labeled-epochs", "1",
+                   "--self-augmented-epochs", "0", "--init-from", str(trained_run),
+                   "--train-networks", "homogeneous", "--homogeneous-pooling", "mean")
+    assert result.exit_code == 0, result.output
+    before = load_checkpoint(checkpoint_files(trained_run / "checkpoints")[-1])["model"]
+    after = load_checkpoint(checkpoint_files(tmp_path / "mean" / "checkpoints")[-1])["model"]
+    assert before.keys() == after.keys()
+    for name in before:
+        if name.startswith(("albedo.", "normal.")):
+            assert torch.equal(before[name], after[name]), name
+    features = before["homogeneous.synthesis.1.weight"].shape[1]
+    assert after["homogeneous.synthesis.1.weight"].shape[1] * 4 * 4 == features  # 32 px / 2^3
+    net = load_network(tmp_path / "mean")
+    assert net.config.homogeneous_pooling == "mean"
+    assert net(torch.rand(2, 3, 32, 32))["log_roughness"].shape == (2, 1)
+
+    frozen = train(dataset, tmp_path / "frozen", "--init-from", str(trained_run),
+                   "--train-networks", "albedo", "--homogeneous-pooling", "mean")
+    assert frozen.exit_code != 0 and "must be among the trained networks" in frozen.output
+    other = train(dataset, tmp_path / "other", "--init-from", str(trained_run),
+                  "--train-networks", "homogeneous", "--homogeneous-pooling", "mean",
+                  "--width", "4")
+    assert other.exit_code != 0 and "differs from this run's" in other.output
 
 
 def test_relit_loss_is_zero_for_the_truth_and_pulls_specular_and_roughness_toward_it():

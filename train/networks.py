@@ -6,7 +6,10 @@ All three networks share the structure of their analysis sub-network: ``levels``
 
 - ``HomogeneousNet``: a fully connected synthesis with ``hidden`` (1024) hidden units that
   predicts the log relative specular albedo (3 values) and the log Ward roughness (1 value)
-  (or, as BRDF-net, 2 values from a monochrome image).
+  (or, as BRDF-net, 2 values from a monochrome image). It reads the whole bottleneck (the
+  paper's, ``homogeneous_pooling="flatten"``: a weight per position) or its average over
+  positions (``"mean"``: the same features wherever they lie, as a homogeneous material's
+  cues may lie anywhere in the photo).
   (The paper predicts a roughness per color channel; the reduced model and the labels here
   have one.)
 - ``MapNet``: a U-Net style synthesis that mirrors the analysis, each block a 3x3 convolution,
@@ -28,6 +31,10 @@ from torch import nn
 from torch.nn import functional
 
 
+HOMOGENEOUS_POOLINGS = ("flatten", "mean")
+"""How the homogeneous network reads its bottleneck (NetworkConfig.homogeneous_pooling)."""
+
+
 @dataclass(frozen=True)
 class NetworkConfig:
     input_size: int = 256
@@ -40,8 +47,15 @@ class NetworkConfig:
     """Analysis blocks (and poolings): 256 px in, an 8 x 8 bottleneck out."""
     hidden: int = 1024
     """Hidden units of the homogeneous network's fully connected synthesis."""
+    homogeneous_pooling: str = "flatten"
+    """What the homogeneous network's synthesis reads of the bottleneck: "flatten" (the
+    paper's: every position, each with its own weights) or "mean" (the average over
+    positions)."""
 
     def __post_init__(self):
+        if self.homogeneous_pooling not in HOMOGENEOUS_POOLINGS:
+            raise ValueError(f"homogeneous_pooling {self.homogeneous_pooling!r} is not one of "
+                             f"{', '.join(HOMOGENEOUS_POOLINGS)}")
         if self.input_size % 2 ** self.levels:
             raise ValueError(f"input_size {self.input_size} is not divisible by 2^levels "
                              f"({2 ** self.levels})")
@@ -95,13 +109,17 @@ class HomogeneousNet(nn.Module):
         super().__init__()
         self.config, self.in_channels = config, in_channels
         self.analysis = Analysis(config, in_channels)
-        bottleneck = config.channels()[-1] * (config.input_size // 2 ** config.levels) ** 2
-        self.synthesis = nn.Sequential(nn.Flatten(), nn.Linear(bottleneck, config.hidden),
+        features = config.channels()[-1]
+        if config.homogeneous_pooling == "flatten":
+            features *= (config.input_size // 2 ** config.levels) ** 2
+        self.synthesis = nn.Sequential(nn.Flatten(), nn.Linear(features, config.hidden),
                                        nn.ReLU(inplace=True), nn.Linear(config.hidden, outputs))
 
     def forward(self, image):
         check_images(image, self.in_channels, self.config.input_size)
-        _, bottleneck = self.analysis(image)
+        _, bottleneck = self.analysis(image)  # (B, C, s, s)
+        if self.config.homogeneous_pooling == "mean":
+            bottleneck = bottleneck.mean((2, 3))  # (B, C)
         return self.synthesis(bottleneck)
 
 

@@ -197,11 +197,28 @@ class Run:
         self.step, self.history = 0, {"train": [], "test": []}
 
     def _initialize_from(self, model):
+        """Load ``model``'s weights. Where its network configuration differs from this run's
+        in ``homogeneous_pooling`` alone, its albedo and normal networks are loaded and the
+        homogeneous network starts fresh (it must then be trained)."""
         start = load_network(model)
-        if start.config != self.cfg.network:
+        config = self.cfg.network
+        same_maps = start.config == dataclasses.replace(
+            config, homogeneous_pooling=start.config.homogeneous_pooling)
+        if not same_maps:
             raise InputError(model, f"its network {start.config} differs from this run's "
-                                    f"{self.cfg.network}")
-        self.net.load_state_dict(start.state_dict())
+                                    f"{config}")
+        if start.config == config:
+            self.net.load_state_dict(start.state_dict())
+            return
+        if "homogeneous" not in self.cfg.train_networks:
+            raise InputError(model, f"its homogeneous network reads its bottleneck by "
+                                    f"{start.config.homogeneous_pooling!r}, this run's by "
+                                    f"{config.homogeneous_pooling!r}: the homogeneous network "
+                                    "starts fresh and must be among the trained networks")
+        for name in ("albedo", "normal"):
+            getattr(self.net, name).load_state_dict(getattr(start, name).state_dict())
+        log.info("%s: albedo and normal networks loaded; the homogeneous network (pooling %s) "
+                 "starts fresh", model, config.homogeneous_pooling)
 
     def _check_dataset(self):
         cfg = self.cfg
