@@ -13,7 +13,6 @@
 # ALBEDO_LOSS (linear or log, default linear), SPECULAR (own or mix: sa-train
 # --mix-specular; default own), POOLING (flatten or mean: sa-train --homogeneous-pooling;
 # mean starts a new homogeneous network beside the file's map networks; default flatten),
-# DARKEST (sa-train --darkest: below 1, half the samples darkened; default 1),
 # REAL_SETS (general only: a folder of the real sets the card lists).
 #
 #   bash scripts/finetune_shipped_models_cpu.sh WORK PROBES_TRAIN OUT_DIR CLASS...
@@ -23,7 +22,6 @@ shift 3
 NETWORK=${NETWORK:-homogeneous} EPOCHS=${EPOCHS:-10} RELIT_WEIGHT=${RELIT_WEIGHT:-300}
 LEARNING_RATE=${LEARNING_RATE:-0.0005} ALBEDO_LOSS=${ALBEDO_LOSS:-linear} BIN=${BIN:-.venv/bin}
 SPECULAR=${SPECULAR:-own} INIT_DIR=${INIT_DIR:-models} POOLING=${POOLING:-flatten}
-DARKEST=${DARKEST:-1}
 mkdir -p "$OUT_DIR"
 link_sets() {  # link_sets CLASS SEEDS...: make the sets if missing, link them into the maps
     local class=$1
@@ -49,14 +47,13 @@ for class in "$@"; do
     fi
     run="$WORK/runs/$class-${NETWORK//,/-}-$ALBEDO_LOSS-$SPECULAR-specular"
     if [ "$POOLING" != flatten ]; then run="$run-$POOLING-pooling"; fi
-    if [ "$DARKEST" != 1 ]; then run="$run-darkest-$DARKEST"; fi
     "$BIN/sa-train" --init-from "$INIT_DIR/svbrdf-$class.safetensors" --train-networks "$NETWORK" \
-        --homogeneous-pooling "$POOLING" --darkest "$DARKEST" \
+        --homogeneous-pooling "$POOLING" \
         --relit-loss-weight "$RELIT_WEIGHT" --relit-loss-size 64 --albedo-loss "$ALBEDO_LOSS" \
         --"$SPECULAR"-specular --labeled-maps "$WORK/maps/$class" --probes "$PROBES" \
         --out "$run" --network compact --labeled-epochs "$EPOCHS" --self-augmented-epochs 0 \
         --learning-rate "$LEARNING_RATE" --lr-gamma 1e-3 --epoch-samples 3200 \
         --checkpoint-every 200 --log-every 50
     "$BIN/python" scripts/export_model.py "$run" "$OUT_DIR/svbrdf-$class.safetensors" \
-        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, $SPECULAR specular, $POOLING pooling, darkest $DARKEST, from $INIT_DIR/svbrdf-$class.safetensors"
+        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, $SPECULAR specular, $POOLING pooling, from $INIT_DIR/svbrdf-$class.safetensors"
 done

@@ -457,43 +457,6 @@ def test_mixed_specular_labels_pair_each_texture_with_other_materials_specular()
     assert (low, high) == pytest.approx((np.min(every), np.max(every)), rel=1e-6)
 
 
-def test_darkened_samples_keep_their_relative_albedo_and_raise_the_specular_label():
-    """With darkest 0.1: about half the samples have a factor in [0.1, 1), the others 1, and
-    every label is the hand-computed one of the darkened texture. The same crop darkened by
-    0.02 keeps its relative albedo, its log specular label rises by log 50, and its render
-    under the same lighting shows more reflection (its texture is washed out). The clamp
-    range's top rises by -log(0.1)."""
-    bank = ProbeBank([load_probe(path).radiance for path in find_probes(BUNDLED_PROBES)])
-    plain = MapSampler(BUNDLED_MATERIALS, bank, [0], size=16, render_size=16)
-    dark = MapSampler(BUNDLED_MATERIALS, bank, [0], size=16, render_size=16, darkest=0.1)
-    materials = {m.name: m for m in dark.materials}
-    batch = dark.batch(np.random.default_rng(5), 40)
-    factors = np.array([sample["albedo_factor"] for sample in batch["provenance"]])
-    assert 10 <= np.sum(factors < 1.0) <= 30 and np.all((factors >= 0.1) & (factors <= 1.0))
-    for i, sample in enumerate(batch["provenance"]):
-        texture = materials[sample["material"]]
-        expected = np.log(texture.specular / (2 * sample["albedo_factor"]
-                                              * texture.albedo.mean(dtype=np.float64)))
-        np.testing.assert_allclose(batch["log_specular"][i].numpy(), expected, rtol=1e-5)
-
-    crops = [dark._crop(0, 0, 0, 0, 1, 0, factor) for factor in (1.0, 0.02)]
-    np.testing.assert_allclose(crops[1]["albedo"], crops[0]["albedo"], rtol=1e-5)
-    np.testing.assert_allclose(crops[1]["log_specular"] - crops[0]["log_specular"],
-                               np.log(50.0), rtol=1e-5)
-    contrast = []
-    for crop in crops:
-        albedo, normal = (torch.as_tensor(crop[name])[None] for name in ("albedo", "normal"))
-        specular = torch.exp(torch.as_tensor(crop["log_specular"]))[None]
-        roughness = torch.exp(torch.as_tensor(crop["log_roughness"]))
-        image = expose(render(albedo, normal, specular, roughness, bank, [0], [0.0]))
-        contrast.append(float(image.std() / image.mean()))
-    assert contrast[1] < 0.8 * contrast[0], contrast  # a reflection washes the texture out
-    assert dark.log_specular_range() == pytest.approx(
-        (plain.log_specular_range()[0], plain.log_specular_range()[1] - np.log(0.1)), rel=1e-6)
-    with pytest.raises(ValueError, match="darkest albedo factor 0.0 is not in"):
-        MapSampler(BUNDLED_MATERIALS, bank, [0], size=16, render_size=16, darkest=0.0)
-
-
 def test_sa_evaluate_takes_the_test_split_of_datasets_in_order(dataset, tmp_path):
     model = tmp_path / "tiny.safetensors"
     save_model(SVBRDFNet(NetworkConfig(input_size=32, width=4, max_width=16, levels=3,

@@ -13,9 +13,7 @@ docs/torch-renderer.md) in place of Mitsuba, so every minibatch sees new lightin
 3. the paper's relative labels of the crop (render.common.labels.relative_labels); with
    ``mix_specular``, the homogeneous specular albedo and roughness come from another random
    material of the folder (its own one time in N), so that they are not a function of the
-   texture (below); with ``darkest`` below 1, half the samples (at random) have their albedo
-   multiplied by a factor drawn log-uniformly from [``darkest``, 1] first: the same texture
-   in a darker dye, whose photo shows relatively more reflection (below);
+   texture (below);
 4. a render under a random probe of ``probe_choices``, at a random rotation about +z and a view
    within ``max_view_angle`` of the normal, auto-exposed and clamped to [0, 1].
 
@@ -27,12 +25,6 @@ seed 9; both under the training probes), where a constant would do better. Mixed
 is seen with every pair of the folder, and the pair has to be read from the reflection. It
 also hides real ties: on procedural wood, whose finish sets both roughness and relief, mixing
 made the network worse (models/README.md).
-
-Why ``darkest``: the relative specular albedo of a plastic (4-5 % reflection) is set by how
-dark its dye is, and dark glossy plastics are few among the sets (about one in five), each
-with its own texture; the shipped networks under-predict their specular albedo by a factor of
-about 3.5 (models/README.md). Darkened copies show every texture with a reflection that
-dominates its diffuse color. The albedo stays physical (at most 1).
 
 Rendering the relative albedos directly is exact: the exposure cancels any common scale. Every
 choice comes from the numpy generator given, so a minibatch is a function of that generator's
@@ -53,11 +45,9 @@ class MapSampler:
     """Random labeled samples of the materials in ``folder`` (one sub-folder per material)."""
 
     def __init__(self, folder, probes, probe_choices, size, render_size, max_view_angle=0.0,
-                 crop_scales=(1,), mix_specular=False, darkest=1.0):
+                 crop_scales=(1,), mix_specular=False):
         if not crop_scales or any(int(k) != k or k < 1 for k in crop_scales):
             raise ValueError(f"crop scales {list(crop_scales)} are not whole numbers >= 1")
-        if not 0.0 < darkest <= 1.0:
-            raise ValueError(f"darkest albedo factor {darkest} is not in (0, 1]")
         if render_size < size * max(crop_scales):
             raise ValueError(f"render_size {render_size} is smaller than the largest crop "
                              f"({size} x {max(crop_scales)})")
@@ -65,28 +55,26 @@ class MapSampler:
         self.probe_choices = np.asarray(probe_choices)
         self.size, self.max_view_angle = size, max_view_angle
         self.crop_scales = [int(k) for k in crop_scales]
-        self.mix_specular, self.darkest = mix_specular, darkest
+        self.mix_specular = mix_specular
         self.materials = [resample(load_material(path), render_size)
                           for path in find_materials(folder)]
 
     def log_specular_range(self):
         """(lowest, highest) log relative specular albedo over the materials, each taken
         relative to its whole map (a crop's scale differs a little); with ``mix_specular``,
-        over every pairing of one material's specular albedo with another's albedo; darkening
-        (``darkest``) raises the highest by -log(darkest)."""
+        over every pairing of one material's specular albedo with another's albedo."""
         log_specular = np.log([np.asarray(m.specular, np.float64) for m in self.materials])
         log_scale = np.log([2.0 * np.mean(m.albedo, dtype=np.float64) for m in self.materials])
         # pairings[i, c, j]: channel c of material i's specular albedo relative to material j's
         pairings = np.subtract.outer(log_specular, log_scale)
         values = pairings if self.mix_specular else np.diagonal(pairings, axis1=0, axis2=2)
-        return float(values.min()), float(values.max() - np.log(self.darkest))
+        return float(values.min()), float(values.max())
 
     def batch(self, rng, count, shard=list):
         """A dict of float32 tensors on the probes' device: image, albedo, normal
         (n, 3, size, size); log_specular (n, 3); log_roughness (n, 1); and ``provenance``,
         a list of dicts (material, specular_from (the material whose specular albedo and
-        roughness the sample has), albedo_factor (the darkening, 1 for none), probe_index,
-        rotation_deg).
+        roughness the sample has), probe_index, rotation_deg).
 
         All ``count`` samples are drawn from ``rng``; ``shard`` picks the ones this process
         renders (n of them; under torchrun, its contiguous shard of the global minibatch)."""
@@ -105,16 +93,15 @@ class MapSampler:
                      torch.exp(labels["log_roughness"][:, 0]), self.probes, probe_index,
                      rotation, view)
         provenance = [{"material": crop["material"], "specular_from": crop["specular_from"],
-                       "albedo_factor": crop["albedo_factor"], "probe_index": int(p),
-                       "rotation_deg": float(r)}
+                       "probe_index": int(p), "rotation_deg": float(r)}
                       for crop, p, r in zip(crops, probe_index, rotation)]
         return {"image": expose(hdr)} | labels | {"provenance": provenance}
 
     def _choice(self, rng):
         """(material index, crop top, crop left, quarter turns, crop scale, index of the
-        material giving the specular albedo and roughness, albedo factor), drawn from ``rng``
-        (the scale only when there is more than one to choose from, the specular material only
-        with ``mix_specular``, the factor only with ``darkest`` below 1)."""
+        material giving the specular albedo and roughness), drawn from ``rng`` (the scale only
+        when there is more than one to choose from, the specular material only with
+        ``mix_specular``)."""
         index = int(rng.integers(len(self.materials)))
         height, width = self.materials[index].albedo.shape[:2]
         scale = self.crop_scales[0]
@@ -125,12 +112,9 @@ class MapSampler:
         left = int(rng.integers(0, width - window + 1))
         turns = int(rng.integers(4))
         specular_index = int(rng.integers(len(self.materials))) if self.mix_specular else index
-        factor = 1.0
-        if self.darkest < 1.0 and rng.random() < 0.5:
-            factor = float(np.exp(rng.uniform(np.log(self.darkest), 0.0)))
-        return index, top, left, turns, scale, specular_index, factor
+        return index, top, left, turns, scale, specular_index
 
-    def _crop(self, index, top, left, turns, scale, specular_index, factor):
+    def _crop(self, index, top, left, turns, scale, specular_index):
         """Channel-first labels of one crop."""
         material, specular_material = self.materials[index], self.materials[specular_index]
         side = self.size * scale
@@ -140,9 +124,8 @@ class MapSampler:
             albedo, normal = _box_down(albedo, scale), _box_down(normal, scale)
             normal /= np.linalg.norm(normal, axis=2, keepdims=True)
         _, albedo, normal = rotate_quarter_turns(albedo, albedo, normal, turns)
-        albedo, log_specular = relative_labels(factor * albedo, specular_material.specular)
+        albedo, log_specular = relative_labels(albedo, specular_material.specular)
         return {"material": material.name, "specular_from": specular_material.name,
-                "albedo_factor": factor,
                 "albedo": albedo.transpose(2, 0, 1), "normal": normal.transpose(2, 0, 1),
                 "log_specular": log_specular.astype(np.float32),
                 "log_roughness": np.array([np.log(specular_material.roughness)], np.float32)}

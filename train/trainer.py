@@ -101,9 +101,6 @@ class TrainConfig:
     """With ``labeled_maps``: each sample takes the specular albedo and roughness of a random
     material of the folder, not only its own (train.map_samples: with one pair per material,
     the network learns which texture has which pair instead of reading the reflection)."""
-    darkest: float = 1.0
-    """With ``labeled_maps``: below 1, half the samples have their albedo darkened by a factor
-    drawn log-uniformly from [darkest, 1] (train.map_samples: more dark glossy appearances)."""
     epoch_samples: int = 3200
     """With ``labeled_maps``: labeled samples per epoch."""
     unlabeled: str | None = None
@@ -162,7 +159,7 @@ class Run:
         if cfg.labeled_maps is not None:
             self.maps = MapSampler(cfg.labeled_maps, self.probes, self.augmentation_probes,
                                    cfg.network.input_size, cfg.render_size, cfg.max_view_angle,
-                                   cfg.crop_scales, cfg.mix_specular, cfg.darkest)
+                                   cfg.crop_scales, cfg.mix_specular)
             steps_per_epoch = cfg.epoch_samples // cfg.batch_size
             self.log_specular_range = self.maps.log_specular_range()
         else:
