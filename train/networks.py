@@ -112,6 +112,7 @@ class HomogeneousNet(nn.Module):
         features = config.channels()[-1]
         if config.homogeneous_pooling == "flatten":
             features *= (config.input_size // 2 ** config.levels) ** 2
+        # Flatten: (B, C, s, s) -> (B, C s^2); leaves the averaged (B, C) as it is
         self.synthesis = nn.Sequential(nn.Flatten(), nn.Linear(features, config.hidden),
                                        nn.ReLU(inplace=True), nn.Linear(config.hidden, outputs))
 
