@@ -112,7 +112,8 @@ class HomogeneousNet(nn.Module):
         features = config.channels()[-1]
         if config.homogeneous_pooling == "flatten":
             features *= (config.input_size // 2 ** config.levels) ** 2
-        # Flatten: (B, C, s, s) -> (B, C s^2); leaves the averaged (B, C) as it is
+        # Flatten: (B, C, s, s) -> (B, C s^2); it leaves the averaged (B, C) as it is, and
+        # stays so that the weights keep their names (synthesis.1, synthesis.3) in every file
         self.synthesis = nn.Sequential(nn.Flatten(), nn.Linear(features, config.hidden),
                                        nn.ReLU(inplace=True), nn.Linear(config.hidden, outputs))
 
