@@ -5,8 +5,9 @@
 # relit loss (sa-train --relit-loss-weight) added to the parameter losses; labeled minibatches
 # rendered on the fly under the 26 training probes from 200 procedural sets of the class
 # (make-materials seeds 0, 2, 3, 4; seed 1 makes the held-out sets), or for `general` from the
-# general network's sets (seeds 0, 2, 3 of each class and the real sets in REAL_SETS). Re-run
-# after an interruption, it resumes each run from its newest checkpoint.
+# general network's sets (seeds 0, 2, 3 of each class and the real sets in REAL_SETS). The runs
+# live in OUT_DIR/runs/CLASS; re-run with the same OUT_DIR after an interruption, it resumes
+# each run from its newest checkpoint.
 #
 # Environment: NETWORK (default homogeneous; a comma-separated list trains several), EPOCHS
 # (of 200 steps, default 10), RELIT_WEIGHT (default 300), LEARNING_RATE (default 0.0005),
@@ -45,8 +46,7 @@ for class in "$@"; do
     else
         link_sets "$class" 0 2 3 4
     fi
-    run="$WORK/runs/$class-${NETWORK//,/-}-$ALBEDO_LOSS-$SPECULAR-specular"
-    if [ "$POOLING" != flatten ]; then run="$run-$POOLING-pooling"; fi
+    run="$OUT_DIR/runs/$class"  # each stage (OUT_DIR) has its own run folders
     "$BIN/sa-train" --init-from "$INIT_DIR/svbrdf-$class.safetensors" --train-networks "$NETWORK" \
         --homogeneous-pooling "$POOLING" \
         --relit-loss-weight "$RELIT_WEIGHT" --relit-loss-size 64 --albedo-loss "$ALBEDO_LOSS" \

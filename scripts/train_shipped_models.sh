@@ -5,7 +5,8 @@
 # minibatches rendered on the fly from them (sa-train --labeled-maps) under the training probes,
 # the `compact` network at 256 px.
 # Each run stops after MINUTES (default 6); its newest checkpoint (an epoch's end) is exported
-# as models/svbrdf-<name>.safetensors-like files into OUT_DIR.
+# as models/svbrdf-<name>.safetensors-like files into OUT_DIR; the runs live in
+# OUT_DIR/runs/<name>, so each stage (OUT_DIR) has its own.
 #
 # Environment: NAMES (networks to train, default all four); INIT (a folder of svbrdf-<name>
 # .safetensors files to start from: fine-tuning, see models/README.md); LEARNING_RATE.
@@ -40,7 +41,7 @@ for name in $NAMES; do
     init=()
     if [ -n "${INIT:-}" ]; then init=(--init-from "$INIT/svbrdf-$name.safetensors"); fi
     OMP_NUM_THREADS=4 timeout "$((MINUTES * 60))" "$PY" -m train.cli.sa_train "${init[@]}" \
-        --labeled-maps "$WORK/maps/$name" --probes "$PROBES" --out "$WORK/runs/$name" \
+        --labeled-maps "$WORK/maps/$name" --probes "$PROBES" --out "$OUT_DIR/runs/$name" \
         --network compact --labeled-epochs 100 --self-augmented-epochs 0 --lr-gamma 1e-3 \
         --learning-rate "$LEARNING_RATE" \
         --epoch-samples "$EPOCH_SAMPLES" --checkpoint-every 200 --log-every 50 \
@@ -48,6 +49,6 @@ for name in $NAMES; do
 done
 wait || true
 for name in $NAMES; do
-    "$PY" scripts/export_model.py "$WORK/runs/$name" "$OUT_DIR/svbrdf-$name.safetensors" \
+    "$PY" scripts/export_model.py "$OUT_DIR/runs/$name" "$OUT_DIR/svbrdf-$name.safetensors" \
         --class "$name" --recipe "scripts/train_shipped_models.sh, $MINUTES min, lr $LEARNING_RATE, from ${INIT:-scratch}"
 done

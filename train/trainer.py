@@ -215,7 +215,7 @@ class Run:
                                     f"{start.config.homogeneous_pooling!r}, this run's by "
                                     f"{config.homogeneous_pooling!r}: the homogeneous network "
                                     "starts fresh and must be among the trained networks")
-        for name in ("albedo", "normal"):
+        for name in (name for name in PARTS if name != "homogeneous"):  # the map networks
             getattr(self.net, name).load_state_dict(getattr(start, name).state_dict())
         log.info("%s: albedo and normal networks loaded; the homogeneous network (pooling %s) "
                  "starts fresh", model, config.homogeneous_pooling)
