@@ -1,10 +1,12 @@
 """Benchmark of SVBRDF-net inference: milliseconds per photo (network forward pass only, batch
-of one, after warm-up) for the paper's, the compact (shipped models) and the small
-configuration. Prints JSON.
+of one, after warm-up) for the paper's, the compact (shipped models; with a U-Net or a
+photo-affine albedo network, as the plastic model has) and the small configuration. Prints
+JSON.
 
     python benchmarks/estimate_speed.py [--device cpu|cuda] [--repeats 10]
 """
 
+import dataclasses
 import json
 import os
 import platform
@@ -21,7 +23,9 @@ from train.networks import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig, SVBR
 @click.option("--repeats", default=10, show_default=True)
 def main(device, repeats):
     results = {}
+    photo_affine = dataclasses.replace(COMPACT_CONFIG, albedo_network="photo-affine")
     for name, config in (("paper", NetworkConfig()), ("compact", COMPACT_CONFIG),
+                         ("compact, photo-affine albedo", photo_affine),
                          ("small", SMALL_CPU_CONFIG)):
         net = SVBRDFNet(config).to(device).eval()
         photo = torch.rand(1, 3, config.input_size, config.input_size, device=device)

@@ -11,7 +11,8 @@ from tests.conftest import write_png
 from train.estimate import estimate
 from train.full_resolution import full_resolution_maps, tile_starts
 from train.model_files import load_network, shipped_model_path
-from train.photos import read_linear_photo, read_photo
+from train.networks import NetworkConfig, SVBRDFNet, photo_affine_albedo
+from train.photos import centre_square, read_linear_photo, read_photo
 
 BUNDLED_PHOTO = "scenes/photos/brick-reference-01.jpg"
 
@@ -76,3 +77,26 @@ def test_maps_cover_the_whole_photo_up_to_max_side(net):
     assert albedo.shape == normal.shape == (150, 200, 3)
     assert np.isfinite(albedo).all() and (albedo > 0).all()
     assert np.allclose(np.linalg.norm(normal, axis=2), 1.0, atol=1e-5)
+
+
+def test_a_photo_affine_albedo_maps_the_whole_photo_by_its_views_numbers():
+    """A photo-affine albedo network maps every pixel of a non-square photo at output
+    resolution by the reflection's share predicted for the photo's network-size view (its
+    centre square)."""
+    torch.manual_seed(0)
+    config = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32,
+                           albedo_network="photo-affine")
+    net = SVBRDFNet(config).eval()
+    with torch.no_grad():  # a clear offset, so that the map is far from the identity
+        net.albedo.affine.synthesis[3].bias.copy_(torch.tensor([-0.5]))
+    photo = resize(read_linear_photo(BUNDLED_PHOTO), 48, 80)
+    albedo, normal = full_resolution_maps(net, photo, max_side=40)
+    small = resize(photo, 24, 40)
+    view = torch.as_tensor(resize(centre_square(small), 32, 32).transpose(2, 0, 1)[None])
+    with torch.no_grad():
+        direct = photo_affine_albedo(net.albedo.affine(view.clip(0, 1)),
+                                     torch.as_tensor(small.transpose(2, 0, 1)[None]))
+    assert albedo.shape == normal.shape == (24, 40, 3)
+    assert np.allclose(albedo, direct[0].permute(1, 2, 0).numpy(), rtol=1e-4, atol=1e-6)
+    plain = small * (0.5 / small.mean())  # the photo's own pattern: not the same map
+    assert np.abs(albedo - plain).mean() > 0.05

@@ -5,8 +5,8 @@ import dataclasses
 import pytest
 import torch
 
-from train.networks import (SMALL_CPU_CONFIG, HomogeneousNet, MapNet, NetworkConfig, SVBRDFNet,
-                            decode_normal)
+from train.networks import (SMALL_CPU_CONFIG, HomogeneousNet, MapNet, NetworkConfig,
+                            PhotoAffineAlbedoNet, SVBRDFNet, decode_normal, photo_affine_albedo)
 from train.optimization import OptimizerConfig, inverse_decay, make_optimizer
 
 TINY = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32)
@@ -76,6 +76,31 @@ def test_mean_pooled_homogeneous_network_reads_the_bottleneck_wherever_a_feature
         assert torch.allclose(outputs[0], outputs[1], atol=1e-6) == invariant, pooling
 
 
+def test_photo_affine_albedo_takes_away_a_grey_reflection():
+    """A photo made of a known albedo plus a grey reflection comes back as that albedo from
+    the reflection's share of the photo's mean; with no share, the reflection stays and
+    lowers the contrast; with too large a share, the darkest pixels go to the softplus's
+    floor."""
+    torch.manual_seed(0)
+    albedo = 0.5 + torch.rand(2, 3, 16, 16)
+    albedo = albedo * (0.5 / albedo.mean((1, 2, 3), keepdim=True))  # the labels' mean 0.5
+    reflection = torch.tensor([0.4, 0.1])[:, None, None, None]
+    photo = 0.3 * (albedo + reflection)  # any exposure
+    share = reflection / (albedo + reflection).mean((1, 2, 3), keepdim=True)
+    logit = torch.logit(share[:, :, 0, 0])
+    assert torch.allclose(photo_affine_albedo(logit, photo), albedo, atol=1e-4)
+    no_offset = photo_affine_albedo(torch.full((2, 1), -30.0), photo)
+    assert torch.allclose(no_offset, photo * 0.5 / photo.mean((1, 2, 3), keepdim=True),
+                          atol=1e-4)
+    assert (no_offset.std((1, 2, 3)) < albedo.std((1, 2, 3)) - 0.01).all()
+    too_much = photo_affine_albedo(torch.full((2, 1), 30.0), photo)  # all of the mean taken
+    assert too_much.min() < 0.01 and torch.allclose(too_much.mean((1, 2, 3)), torch.full((2,), 0.5))
+    net = PhotoAffineAlbedoNet(TINY).eval()
+    output = net(torch.rand(2, 3, 32, 32))
+    assert output.shape == (2, 3, 32, 32) and output.min() > 0
+    assert torch.allclose(output.mean((1, 2, 3)), torch.full((2,), 0.5))
+
+
 def test_separate_networks_per_output_type():
     net = SVBRDFNet(TINY)
     albedo_weights = {id(p) for p in net.albedo.parameters()}
@@ -88,6 +113,8 @@ def test_configuration_checks():
         NetworkConfig(input_size=100, levels=3)
     with pytest.raises(ValueError, match="homogeneous_pooling 'max' is not one of flatten, mean"):
         NetworkConfig(homogeneous_pooling="max")
+    with pytest.raises(ValueError, match="albedo_network 'pixels' is not one of map, photo-affine"):
+        NetworkConfig(albedo_network="pixels")
     size = TINY.input_size
     with pytest.raises(ValueError, match=rf"expected images of shape \(B, 3, {size}, {size}\), "
                                          rf"got \(1, 3, 64, 64\)"):

@@ -1,6 +1,7 @@
 """sa-train end to end on tiny data: outputs, exact resume, bad input; the schedule and the
 self-augmented minibatch."""
 
+import dataclasses
 import json
 import subprocess
 import sys
@@ -366,6 +367,44 @@ def test_a_mean_pooled_homogeneous_network_starts_fresh_beside_loaded_map_networ
                   "--train-networks", "homogeneous", "--homogeneous-pooling", "mean",
                   "--width", "4")
     assert other.exit_code != 0 and "differs from this run's" in other.output
+
+
+def test_a_photo_affine_albedo_network_starts_from_the_homogeneous_analysis(
+        trained_run, dataset, tmp_path):
+    """--init-from a model with a U-Net albedo network into a run with a photo-affine one: the
+    homogeneous and normal networks are loaded, the albedo network is new, its analysis a copy
+    of the model's homogeneous analysis, and it trains; without training it the run is
+    refused."""
+    start = load_network(trained_run)
+    config = dataclasses.replace(start.config, albedo_network="photo-affine")
+    run = Run(TrainConfig(dataset=str(dataset), out=str(tmp_path / "unused"),
+                          probes=str(BUNDLED_PROBES), init_from=str(trained_run),
+                          network=config, train_networks=("albedo",)))
+    for name in ("homogeneous", "normal"):
+        for key, value in getattr(start, name).state_dict().items():
+            assert torch.equal(getattr(run.net, name).state_dict()[key], value), key
+    analysis = start.homogeneous.analysis.state_dict()
+    assert analysis.keys() == run.net.albedo.affine.analysis.state_dict().keys()
+    for key, value in run.net.albedo.affine.analysis.state_dict().items():
+        assert torch.equal(value, analysis[key]), key
+
+    result = train(dataset, tmp_path / "affine", "--labeled-epochs", "1",
+                   "--self-augmented-epochs", "0", "--init-from", str(trained_run),
+                   "--train-networks", "albedo", "--albedo-network", "photo-affine")
+    assert result.exit_code == 0, result.output
+    trained = load_checkpoint(checkpoint_files(tmp_path / "affine" / "checkpoints")[-1])["model"]
+    assert not torch.equal(trained["albedo.affine.analysis.blocks.0.0.weight"],
+                           analysis["blocks.0.0.weight"])  # it trained
+    net = load_network(tmp_path / "affine")
+    assert net.config.albedo_network == "photo-affine"
+    albedo = net(torch.rand(2, 3, 32, 32))["albedo"]
+    assert albedo.shape == (2, 3, 32, 32)
+    assert torch.allclose(albedo.mean((1, 2, 3)), torch.full((2,), 0.5))
+
+    frozen = train(dataset, tmp_path / "frozen", "--init-from", str(trained_run),
+                   "--train-networks", "homogeneous", "--albedo-network", "photo-affine")
+    assert frozen.exit_code != 0
+    assert "the albedo network starts fresh and must be among the trained" in frozen.output
 
 
 def test_relit_loss_is_zero_for_the_truth_and_pulls_specular_and_roughness_toward_it():

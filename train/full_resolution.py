@@ -18,6 +18,11 @@ convolutional, so they can also run on other sizes; the maps here come from two 
    overview's size and up is bilinear. So the maps, averaged down to the overview's size,
    agree with the overview.
 
+A photo-affine albedo network (train.networks.PhotoAffineAlbedoNet) needs none of this: its
+albedo is the photo less an offset, pixel by pixel, so the whole photo at output resolution
+loses the offset predicted for its network-size view (the centre square at S x S, as
+the estimate sees it); only the normals go through steps 1 to 3.
+
 Why not the tiles alone: a tile sees the texture magnified (output side / S times), a scale
 the networks were not trained on, and each tile's albedo comes out relative to its own content
 (mean about 0.5 per tile), which would make tiles of a dark and a light region equally bright.
@@ -34,7 +39,8 @@ import torch
 from torch.nn import functional
 
 from render.common.images import resize
-from train.networks import decode_normal
+from train.networks import PhotoAffineAlbedoNet, decode_normal
+from train.photos import centre_square
 
 MAX_SIDE = 2048
 """Default longest side of the full-resolution maps (px)."""
@@ -57,8 +63,22 @@ def full_resolution_maps(net, linear_photo, max_side=MAX_SIDE, overlap=TILE_OVER
         overview = map_networks(net, overview_photo(photo, config.input_size,
                                                      2 ** config.levels)[None])
         detail = tiled_map_networks(net, photo, config.input_size, overlap)
-        albedo, normal = combine(overview, detail)
-    return tuple(np.ascontiguousarray(m[0].permute(1, 2, 0).numpy()) for m in (albedo, normal))
+        maps = combine(overview, detail)
+        if "albedo" not in maps:  # a photo-affine albedo network
+            maps["albedo"] = photo_affine_albedo_map(net, photo)
+    return tuple(np.ascontiguousarray(maps[name][0].permute(1, 2, 0).numpy())
+                 for name in ("albedo", "normal"))
+
+
+def photo_affine_albedo_map(net, photo):
+    """(1, 3, H, W): every pixel of the (H, W, 3) photo mapped by the photo-affine albedo
+    network's offset for the photo's network-size view (its centre square at S x S)."""
+    size = net.config.input_size
+    view = np.clip(resize(centre_square(photo), size, size), 0.0, 1.0)
+    device = next(net.parameters()).device
+    image, view = (torch.as_tensor(np.ascontiguousarray(x.transpose(2, 0, 1)))[None].to(device)
+                   for x in (photo, view))
+    return net.albedo(image, view).cpu()
 
 
 def overview_photo(photo, input_size, multiple):
@@ -71,11 +91,15 @@ def overview_photo(photo, input_size, multiple):
 
 
 def map_networks(net, photos):
-    """(B, H, W, 3) photos, sides multiples of 2^levels -> (albedo, normal), each
-    (B, 3, H, W) on the CPU."""
+    """(B, H, W, 3) photos, sides multiples of 2^levels -> dict of the maps of the U-Net
+    networks, each (B, 3, H, W) on the CPU: normal, and albedo unless the albedo network is
+    photo-affine (whose albedo photo_affine_albedo_map makes)."""
     device = next(net.parameters()).device
     image = torch.as_tensor(np.ascontiguousarray(photos.transpose(0, 3, 1, 2))).to(device)
-    return net.albedo(image).cpu(), decode_normal(net.normal(image)).cpu()
+    maps = {"normal": decode_normal(net.normal(image)).cpu()}
+    if not isinstance(net.albedo, PhotoAffineAlbedoNet):
+        maps["albedo"] = net.albedo(image).cpu()
+    return maps
 
 
 def tile_starts(length, tile, overlap):
@@ -97,7 +121,7 @@ def tile_weight(tile, overlap):
 
 
 def tiled_map_networks(net, photo, tile, overlap):
-    """(albedo, normal), each (1, 3, H, W), of the (H, W, 3) photo run as overlapping
+    """The maps of map_networks, each (1, 3, H, W), of the (H, W, 3) photo run as overlapping
     ``tile`` x ``tile`` tiles, blended (a photo side under ``tile`` is padded by reflection
     and the padding cut off again)."""
     overlap = min(overlap, tile // 4)
@@ -107,32 +131,40 @@ def tiled_map_networks(net, photo, tile, overlap):
     rows, columns = (tile_starts(side, tile, overlap) for side in padded.shape[:2])
     weight = torch.as_tensor(np.outer(tile_weight(tile, overlap), tile_weight(tile, overlap)))
     total = torch.zeros(padded.shape[:2])
-    sums = [torch.zeros((3,) + padded.shape[:2]) for _ in range(2)]
+    sums = {}
     corners = [(top, left) for top in rows for left in columns]
     for first in range(0, len(corners), TILE_BATCH):
         batch = corners[first:first + TILE_BATCH]
         images = np.stack([padded[t:t + tile, l:l + tile] for t, l in batch])
-        albedo, normal = map_networks(net, images)
+        maps = map_networks(net, images)
         for i, (top, left) in enumerate(batch):
             window = (slice(top, top + tile), slice(left, left + tile))
             total[window] += weight
-            for accumulated, tiles in zip(sums, (albedo, normal)):
+            for name, tiles in maps.items():
+                accumulated = sums.setdefault(name, torch.zeros((3,) + padded.shape[:2]))
                 accumulated[(slice(None),) + window] += weight * tiles[i]
-    albedo = (sums[0] / total)[:, :height, :width]
-    normal = functional.normalize(sums[1], dim=0)[:, :height, :width]
-    return albedo[None], normal[None]
+    blended = {"normal": functional.normalize(sums["normal"], dim=0)}
+    if "albedo" in sums:
+        blended["albedo"] = sums["albedo"] / total
+    return {name: value[None, :, :height, :width] for name, value in blended.items()}
 
 
 def combine(overview, detail):
-    """(albedo, normal) at the detail's size, with the detail's high frequencies and the
-    overview's low ones (module docstring, step 3)."""
-    size = detail[0].shape[2:]
-    low = [functional.interpolate(functional.interpolate(d, size=o.shape[2:], mode="area"),
-                                  size=size, mode="bilinear", align_corners=False)
-           for d, o in zip(detail, overview)]
-    up = [functional.interpolate(o, size=size, mode="bilinear", align_corners=False)
-          for o in overview]
-    albedo = detail[0] * up[0] / low[0].clamp(min=1e-4)
-    normal = detail[1] - low[1] + up[1]
+    """The maps of ``detail`` (dicts as map_networks gives) at the detail's size, with the
+    detail's high frequencies and the overview's low ones (module docstring, step 3)."""
+    size = detail["normal"].shape[2:]
+
+    def low(name):
+        down = functional.interpolate(detail[name], size=overview[name].shape[2:], mode="area")
+        return functional.interpolate(down, size=size, mode="bilinear", align_corners=False)
+
+    def up(name):
+        return functional.interpolate(overview[name], size=size, mode="bilinear",
+                                      align_corners=False)
+
+    normal = detail["normal"] - low("normal") + up("normal")
     normal = torch.cat([normal[:, :2], normal[:, 2:].clamp(min=0.05)], 1)
-    return albedo, functional.normalize(normal, dim=1)
+    combined = {"normal": functional.normalize(normal, dim=1)}
+    if "albedo" in detail:
+        combined["albedo"] = detail["albedo"] * up("albedo") / low("albedo").clamp(min=1e-4)
+    return combined

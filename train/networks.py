@@ -19,11 +19,21 @@ All three networks share the structure of their analysis sub-network: ``levels``
   exceed 1 where a color is saturated (a blue fabric's blue channel reaches 2.8), which the
   paper's sigmoid cannot reach. Another predicts the normals encoded (n + 1) / 2, through a
   sigmoid.
+- ``PhotoAffineAlbedoNet`` (``albedo_network="photo-affine"``), the other albedo network: the
+  relative albedo is the photo itself less a grey offset, the reflection, whose share of the
+  photo's mean a homogeneous network (averaged bottleneck) predicts. Under the paper's
+  conditions (a flat sample, distant lighting, a fronto-parallel view) the diffuse radiance
+  is the albedo times one irradiance per channel and the specular reflection nearly one
+  offset per channel, so the photo is, per channel, an affine function of the albedo: the
+  offset is what the photo alone does not tell. The albedo keeps the photo's every detail,
+  and with it what this model leaves out (the light's color, shading of relief, glints of a
+  glossy relief).
 
 Input: (B, 3, S, S) photos, linear RGB in [0, 1] (docs/conventions.md), S divisible by
 2^levels. Outputs follow the label conventions of docs/dataset-format.md.
 """
 
+import dataclasses
 from dataclasses import dataclass
 
 import torch
@@ -33,6 +43,9 @@ from torch.nn import functional
 
 HOMOGENEOUS_POOLINGS = ("flatten", "mean")
 """How the homogeneous network reads its bottleneck (NetworkConfig.homogeneous_pooling)."""
+ALBEDO_NETWORKS = ("map", "photo-affine")
+"""What predicts the albedo (NetworkConfig.albedo_network): a MapNet, or a
+PhotoAffineAlbedoNet."""
 
 
 @dataclass(frozen=True)
@@ -51,8 +64,14 @@ class NetworkConfig:
     """What the homogeneous network's synthesis reads of the bottleneck: "flatten" (the
     paper's: every position, each with its own weights) or "mean" (the average over
     positions)."""
+    albedo_network: str = "map"
+    """The albedo network: "map" (the paper's: a U-Net predicts every pixel) or
+    "photo-affine" (the photo less a predicted grey offset, PhotoAffineAlbedoNet)."""
 
     def __post_init__(self):
+        if self.albedo_network not in ALBEDO_NETWORKS:
+            raise ValueError(f"albedo_network {self.albedo_network!r} is not one of "
+                             f"{', '.join(ALBEDO_NETWORKS)}")
         if self.homogeneous_pooling not in HOMOGENEOUS_POOLINGS:
             raise ValueError(f"homogeneous_pooling {self.homogeneous_pooling!r} is not one of "
                              f"{', '.join(HOMOGENEOUS_POOLINGS)}")
@@ -148,6 +167,39 @@ class MapNet(nn.Module):
         return self.activation(self.output(x))
 
 
+class PhotoAffineAlbedoNet(nn.Module):
+    """Photo (B, 3, S, S) -> relative albedo (B, 3, S, S), the photo less the reflection
+    (photo_affine_albedo) whose share ``affine``, a homogeneous network with its bottleneck
+    averaged, predicts."""
+
+    def __init__(self, config):
+        super().__init__()
+        self.affine = HomogeneousNet(dataclasses.replace(config, homogeneous_pooling="mean"),
+                                     outputs=1)
+
+    def forward(self, image, reference=None):
+        """The albedo of ``image``; with ``reference`` (B, 3, S, S), the reflection's share
+        is predicted from it instead, and ``image`` may have any size (a full-resolution
+        photo mapped as its network-size view is: train.full_resolution)."""
+        return photo_affine_albedo(self.affine(image if reference is None else reference),
+                                   image)
+
+
+AFFINE_OFFSET_SHARPNESS = 100.0
+"""Sharpness (beta, 1 / photo value) of the softplus that keeps the photo minus its offset
+positive: it differs from max(x, 0) by at most log(2) / 100 = 0.007."""
+
+
+def photo_affine_albedo(logit, image):
+    """The relative albedo (B, 3, H, W) of ``image`` (B, 3, H, W), a linear RGB photo, less
+    the reflection: a grey offset, ``sigmoid(logit)`` ((B, 1), the reflection's share) times
+    the photo's mean over pixels and channels; kept positive by a softplus and scaled to
+    mean 0.5 over pixels and channels, the labels' convention (docs/conventions.md)."""
+    offset = torch.sigmoid(logit)[:, :, None, None] * image.mean((1, 2, 3), keepdim=True)
+    albedo = functional.softplus(image - offset, beta=AFFINE_OFFSET_SHARPNESS)
+    return albedo * (0.5 / albedo.mean((1, 2, 3), keepdim=True))
+
+
 PARTS = {"homogeneous": ("log_specular", "log_roughness"), "albedo": ("albedo",),
          "normal": ("normal",)}
 """The three networks of SVBRDFNet (its attribute names) and the labels each predicts."""
@@ -164,7 +216,8 @@ class SVBRDFNet(nn.Module):
         super().__init__()
         self.config = config
         self.homogeneous = HomogeneousNet(config)
-        self.albedo = MapNet(config, functional.softplus)
+        self.albedo = (MapNet(config, functional.softplus) if config.albedo_network == "map"
+                       else PhotoAffineAlbedoNet(config))
         self.normal = MapNet(config, torch.sigmoid)
         self.to(memory_format=torch.channels_last)
 

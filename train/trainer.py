@@ -63,6 +63,9 @@ RELIT_LOSS_STREAM = 1
 LABELED_COLORS_STREAM = 2 ** 32 - 1
 """Second seed word of the random stream of the labeled samples whose colors choose the
 unlabeled subset; step ``index`` uses (seed, index), and no run reaches this many steps."""
+FRESH_WHEN_CHANGED = {"homogeneous_pooling": "homogeneous", "albedo_network": "albedo"}
+"""Network configuration fields in which an ``init_from`` model may differ from the run, and
+the network each shapes (which then starts fresh)."""
 MAY_CHANGE = ("out", "device", "log_every", "checkpoint_every")
 """Options that do not change the trained weights: a resumed run may use other values
 (render.common.resume), so a moved run folder, or a CPU run continued on a GPU, resumes."""
@@ -84,7 +87,8 @@ class TrainConfig:
     the torch renderer (train.map_samples) instead of read from ``dataset``."""
     init_from: str | None = None
     """A model (shipped file, checkpoint or run folder) whose weights start the training, for
-    fine-tuning; its network configuration must equal ``network``. None: random weights."""
+    fine-tuning; its network configuration must equal ``network`` but for the fields of
+    FRESH_WHEN_CHANGED (Run._initialize_from). None: random weights."""
     train_networks: tuple = tuple(PARTS)
     """The networks trained (names of train.networks.PARTS). The others keep their weights
     (from ``init_from``), stay in evaluation mode and are not run in labeled steps: the paper
@@ -198,27 +202,32 @@ class Run:
 
     def _initialize_from(self, model):
         """Load ``model``'s weights. Where its network configuration differs from this run's
-        in ``homogeneous_pooling`` alone, its albedo and normal networks are loaded and the
-        homogeneous network starts fresh (it must then be trained)."""
+        only in fields of FRESH_WHEN_CHANGED, the networks those fields shape start fresh (they
+        must then be trained) and the others are loaded; a fresh photo-affine albedo network
+        starts its analysis from the model's homogeneous analysis (both read a photo's
+        homogeneous cues, and training on a CPU is short)."""
         start = load_network(model)
         config = self.cfg.network
-        same_maps = start.config == dataclasses.replace(
-            config, homogeneous_pooling=start.config.homogeneous_pooling)
-        if not same_maps:
+        changed = [name for name in FRESH_WHEN_CHANGED
+                   if getattr(start.config, name) != getattr(config, name)]
+        if start.config != dataclasses.replace(config, **{name: getattr(start.config, name)
+                                                          for name in changed}):
             raise InputError(model, f"its network {start.config} differs from this run's "
                                     f"{config}")
-        if start.config == config:
-            self.net.load_state_dict(start.state_dict())
-            return
-        if "homogeneous" not in self.cfg.train_networks:
-            raise InputError(model, f"its homogeneous network reads its bottleneck by "
-                                    f"{start.config.homogeneous_pooling!r}, this run's by "
-                                    f"{config.homogeneous_pooling!r}: the homogeneous network "
-                                    "starts fresh and must be among the trained networks")
-        for name in (name for name in PARTS if name != "homogeneous"):  # the map networks
+        fresh = {FRESH_WHEN_CHANGED[name] for name in changed}
+        untrained = sorted(fresh - set(self.cfg.train_networks))
+        if untrained:
+            raise InputError(model, f"its {', '.join(changed)} differ from this run's: the "
+                                    f"{', '.join(untrained)} network starts fresh and must be "
+                                    "among the trained networks")
+        for name in (name for name in PARTS if name not in fresh):
             getattr(self.net, name).load_state_dict(getattr(start, name).state_dict())
-        log.info("%s: albedo and normal networks loaded; the homogeneous network (pooling %s) "
-                 "starts fresh", model, config.homogeneous_pooling)
+        if "albedo" in fresh and config.albedo_network == "photo-affine":
+            self.net.albedo.affine.analysis.load_state_dict(
+                start.homogeneous.analysis.state_dict())
+        if fresh:
+            log.info("%s: loaded all but the %s network, which starts fresh", model,
+                     ", ".join(sorted(fresh)))
 
     def _check_dataset(self):
         cfg = self.cfg

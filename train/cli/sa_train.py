@@ -9,8 +9,8 @@ import click
 
 from render.common.errors import InputError
 from train.losses import ALBEDO_LOSSES
-from train.networks import (COMPACT_CONFIG, HOMOGENEOUS_POOLINGS, PARTS, SMALL_CPU_CONFIG,
-                            NetworkConfig)
+from train.networks import (ALBEDO_NETWORKS, COMPACT_CONFIG, HOMOGENEOUS_POOLINGS, PARTS,
+                            SMALL_CPU_CONFIG, NetworkConfig)
 from train.optimization import OptimizerConfig
 from train.trainer import TrainConfig, run
 
@@ -52,6 +52,9 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
 @click.option("--homogeneous-pooling", type=click.Choice(HOMOGENEOUS_POOLINGS), default=None,
               help="Override the preset's: how the homogeneous network reads its bottleneck "
                    "(flatten, the paper's; mean, averaged over positions).")
+@click.option("--albedo-network", type=click.Choice(ALBEDO_NETWORKS), default=None,
+              help="Override the preset's albedo network (map, the paper's U-Net; "
+                   "photo-affine, a per-channel affine map of the photo).")
 @click.option("--learning-rate", default=0.002, show_default=True)
 @click.option("--lr-gamma", default=1e-4, show_default=True,
               help="Gamma of the inv policy: lr = learning_rate (1 + gamma step)^-1.")
@@ -73,14 +76,14 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
 @click.option("--checkpoint-every", default=500, show_default=True)
 @click.option("--log-every", default=50, show_default=True)
 @click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
-def main(network_name, input_size, width, levels, homogeneous_pooling, learning_rate, lr_gamma,
-         train_networks, crop_scales, **options):
+def main(network_name, input_size, width, levels, homogeneous_pooling, albedo_network,
+         learning_rate, lr_gamma, train_networks, crop_scales, **options):
     """Train SVBRDF-net, with self-augmentation when unlabeled photos are given."""
     main_process = os.environ.get("RANK", "0") == "0"  # under torchrun, only rank 0 logs
     logging.basicConfig(level=logging.INFO if main_process else logging.WARNING,
                         format="%(asctime)s %(levelname)s %(message)s")
     overrides = {"input_size": input_size, "width": width, "levels": levels,
-                 "homogeneous_pooling": homogeneous_pooling}
+                 "homogeneous_pooling": homogeneous_pooling, "albedo_network": albedo_network}
     try:
         network = dataclasses.replace(NETWORKS[network_name],
                                       **{k: v for k, v in overrides.items() if v is not None})
