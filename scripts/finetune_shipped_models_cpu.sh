@@ -14,8 +14,9 @@
 # ALBEDO_LOSS (linear or log, default linear), SPECULAR (own or mix: sa-train
 # --mix-specular; default own), POOLING (flatten or mean: sa-train --homogeneous-pooling;
 # mean starts a new homogeneous network beside the file's map networks; default flatten),
-# ALBEDO_NETWORK (map or photo-affine: sa-train --albedo-network; photo-affine starts a new
-# albedo network, NETWORK must include albedo; default map),
+# ALBEDO_NETWORK (map or photo-affine: sa-train --albedo-network; another kind than the
+# starting file's starts a new albedo network, NETWORK must include albedo; default: the
+# starting file's),
 # REAL_SETS (general only: a folder of the real sets the card lists).
 #
 #   bash scripts/finetune_shipped_models_cpu.sh WORK PROBES_TRAIN OUT_DIR CLASS...
@@ -25,7 +26,6 @@ shift 3
 NETWORK=${NETWORK:-homogeneous} EPOCHS=${EPOCHS:-10} RELIT_WEIGHT=${RELIT_WEIGHT:-300}
 LEARNING_RATE=${LEARNING_RATE:-0.0005} ALBEDO_LOSS=${ALBEDO_LOSS:-linear} BIN=${BIN:-.venv/bin}
 SPECULAR=${SPECULAR:-own} INIT_DIR=${INIT_DIR:-models} POOLING=${POOLING:-flatten}
-ALBEDO_NETWORK=${ALBEDO_NETWORK:-map}
 mkdir -p "$OUT_DIR"
 link_sets() {  # link_sets CLASS SEEDS...: make the sets if missing, link them into the maps
     local class=$1
@@ -50,13 +50,17 @@ for class in "$@"; do
         link_sets "$class" 0 2 3 4
     fi
     run="$OUT_DIR/runs/$class"  # each stage (OUT_DIR) has its own run folders
-    "$BIN/sa-train" --init-from "$INIT_DIR/svbrdf-$class.safetensors" --train-networks "$NETWORK" \
-        --homogeneous-pooling "$POOLING" --albedo-network "$ALBEDO_NETWORK" \
+    init="$INIT_DIR/svbrdf-$class.safetensors"
+    albedo_network=${ALBEDO_NETWORK:-$("$BIN/python" -c "import sys
+from train.model_files import shipped_network_config
+print(shipped_network_config(sys.argv[1]).albedo_network)" "$init")}
+    "$BIN/sa-train" --init-from "$init" --train-networks "$NETWORK" \
+        --homogeneous-pooling "$POOLING" --albedo-network "$albedo_network" \
         --relit-loss-weight "$RELIT_WEIGHT" --relit-loss-size 64 --albedo-loss "$ALBEDO_LOSS" \
         --"$SPECULAR"-specular --labeled-maps "$WORK/maps/$class" --probes "$PROBES" \
         --out "$run" --network compact --labeled-epochs "$EPOCHS" --self-augmented-epochs 0 \
         --learning-rate "$LEARNING_RATE" --lr-gamma 1e-3 --epoch-samples 3200 \
         --checkpoint-every 200 --log-every 50
     "$BIN/python" scripts/export_model.py "$run" "$OUT_DIR/svbrdf-$class.safetensors" \
-        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, $SPECULAR specular, $POOLING pooling, $ALBEDO_NETWORK albedo network, from $INIT_DIR/svbrdf-$class.safetensors"
+        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, $SPECULAR specular, $POOLING pooling, $albedo_network albedo network, from $init"
 done

@@ -217,7 +217,7 @@ class Run:
         fresh = {FRESH_WHEN_CHANGED[name] for name in changed}
         untrained = sorted(fresh - set(self.cfg.train_networks))
         if untrained:
-            raise InputError(model, f"its {', '.join(changed)} differ from this run's: the "
+            raise InputError(model, f"it differs from this run in {', '.join(changed)}: the "
                                     f"{', '.join(untrained)} network starts fresh and must be "
                                     "among the trained networks")
         for name in (name for name in PARTS if name not in fresh):
