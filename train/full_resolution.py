@@ -40,7 +40,7 @@ from torch.nn import functional
 
 from render.common.images import resize
 from train.networks import PhotoAffineAlbedoNet, decode_normal
-from train.photos import centre_square
+from train.photos import network_view
 
 MAX_SIDE = 2048
 """Default longest side of the full-resolution maps (px)."""
@@ -73,11 +73,9 @@ def full_resolution_maps(net, linear_photo, max_side=MAX_SIDE, overlap=TILE_OVER
 def photo_affine_albedo_map(net, photo):
     """(1, 3, H, W): every pixel of the (H, W, 3) photo mapped by the photo-affine albedo
     network's offset for the photo's network-size view (its centre square at S x S)."""
-    size = net.config.input_size
-    view = np.clip(resize(centre_square(photo), size, size), 0.0, 1.0)
     device = next(net.parameters()).device
-    image, view = (torch.as_tensor(np.ascontiguousarray(x.transpose(2, 0, 1)))[None].to(device)
-                   for x in (photo, view))
+    image = torch.as_tensor(np.ascontiguousarray(photo.transpose(2, 0, 1)))[None].to(device)
+    view = torch.as_tensor(network_view(photo, net.config.input_size))[None].to(device)
     return net.albedo(image, view).cpu()
 
 

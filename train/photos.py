@@ -13,7 +13,7 @@ The rule (the same for unlabeled training photos and for ``sa-estimate``):
 The result is (3, size, size) float32 linear RGB, the layout of the network input.
 
 ``read_linear_photo`` stops after step 2 (the whole photo, for full-resolution maps,
-train.full_resolution). Both refuse photos with a side under MIN_PHOTO_SIDE pixels or a side
+train.full_resolution); ``network_view`` does steps 3 and 4. Both refuse photos with a side under MIN_PHOTO_SIDE pixels or a side
 ratio above MAX_PHOTO_ASPECT (a panorama is not a photo of a flat sample, and the centre square
 would see a sliver of it); render.common.images.read_image refuses images above its pixel limit
 before decoding them.
@@ -33,8 +33,14 @@ MAX_PHOTO_ASPECT = 4.0
 
 def read_photo(path, size):
     """(3, size, size) float32 linear RGB in [0, 1], by the rule in the module docstring."""
-    square = centre_square(read_linear_photo(path))
-    return np.ascontiguousarray(np.clip(resize(square, size, size), 0, 1).transpose(2, 0, 1))
+    return network_view(read_linear_photo(path), size)
+
+
+def network_view(pixels, size):
+    """Steps 3 and 4 of the rule: (H, W, 3) linear pixels -> (3, size, size), the centred
+    square resized and clamped to [0, 1], channels first."""
+    square = np.clip(resize(centre_square(pixels), size, size), 0, 1)
+    return np.ascontiguousarray(square.transpose(2, 0, 1))
 
 
 def read_linear_photo(path):

@@ -54,7 +54,7 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
                    "(flatten, the paper's; mean, averaged over positions).")
 @click.option("--albedo-network", type=click.Choice(ALBEDO_NETWORKS), default=None,
               help="Override the preset's albedo network (map, the paper's U-Net; "
-                   "photo-affine, a per-channel affine map of the photo).")
+                   "photo-affine, the photo less a predicted grey offset).")
 @click.option("--learning-rate", default=0.002, show_default=True)
 @click.option("--lr-gamma", default=1e-4, show_default=True,
               help="Gamma of the inv policy: lr = learning_rate (1 + gamma step)^-1.")
