@@ -17,7 +17,8 @@
 # ALBEDO_NETWORK (map or photo-affine: sa-train --albedo-network; another kind than the
 # starting file's starts a new albedo network, NETWORK must include albedo; default: the
 # starting file's),
-# REAL_SETS (general only: a folder of the real sets the card lists).
+# REAL_SETS (general only: a folder of the real sets the card lists), SEEDS (a class's
+# make-materials seeds, each SEED or SEED:COUNT sets, default "0 2 3 4" of 50 sets each).
 #
 #   bash scripts/finetune_shipped_models_cpu.sh WORK PROBES_TRAIN OUT_DIR CLASS...
 set -euo pipefail
@@ -27,13 +28,15 @@ NETWORK=${NETWORK:-homogeneous} EPOCHS=${EPOCHS:-10} RELIT_WEIGHT=${RELIT_WEIGHT
 LEARNING_RATE=${LEARNING_RATE:-0.0005} ALBEDO_LOSS=${ALBEDO_LOSS:-linear} BIN=${BIN:-.venv/bin}
 SPECULAR=${SPECULAR:-own} INIT_DIR=${INIT_DIR:-models} POOLING=${POOLING:-flatten}
 mkdir -p "$OUT_DIR"
-link_sets() {  # link_sets CLASS SEEDS...: make the sets if missing, link them into the maps
-    local class=$1
+link_sets() {  # link_sets CLASS SEED[:COUNT]...: make the sets if missing, link them into the maps
+    local class=$1 seed count
     shift
-    for seed in "$@"; do
+    for each in "$@"; do
+        seed=${each%%:*} count=50
+        [ "$each" != "$seed" ] && count=${each#*:}
         if [ ! -d "$WORK/sets/$class-$seed" ]; then
-            "$BIN/make-materials" --class "$class" --count 50 --seed "$seed" --resolution 512 \
-                --out "$WORK/sets/$class-$seed"
+            "$BIN/make-materials" --class "$class" --count "$count" --seed "$seed" \
+                --resolution 512 --out "$WORK/sets/$class-$seed"
         fi
         for set in "$WORK/sets/$class-$seed"/*/; do ln -sfn "$(realpath "$set")" "$MAPS/"; done
     done
@@ -47,7 +50,7 @@ for class in "$@"; do
             ln -sfn "$(realpath "$set")" "$MAPS/"
         done
     else
-        link_sets "$class" 0 2 3 4
+        link_sets "$class" ${SEEDS:-0 2 3 4}
     fi
     run="$OUT_DIR/runs/$class"  # each stage (OUT_DIR) has its own run folders
     init="$INIT_DIR/svbrdf-$class.safetensors"

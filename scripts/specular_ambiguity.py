@@ -29,6 +29,11 @@ stay within the range of alpha and of mean log relative specular albedo that the
 truths span. The bound is a floor, not an estimate: the search is coarse (a grid of alphas, one
 family of albedo changes, the truth's normals) and finds only some of the look-alikes.
 
+A photo shows nothing of the roughness when every alpha of the grid (within the support) has
+a look-alike: ``roughness_unseen`` per sample, its share over the test in the summary
+(``share_roughness_unseen``). On such a photo an estimator can only answer the roughness its
+training data makes likeliest.
+
 Writes ``ambiguity.json`` (per sample and summary) and ``ambiguity.png`` (relit distance
 against photo difference, every alternative) into ``--out``; prints the summary as JSON.
 
@@ -156,6 +161,13 @@ def sample_alternatives(truth, bank, own_index, novel_index, novel_rotation, sup
     return true_hdr, results, 0.5 * diameter
 
 
+def roughness_unseen(alternatives, alphas, levels):
+    """Whether each of ``alphas`` has an alternative (of either kind) whose photo differs from
+    the truth's by less than ``levels``: the photo then does not show the roughness."""
+    return all(any(a["alpha"] == alpha and a["photo_levels"] < levels for a in alternatives)
+               for alpha in alphas)
+
+
 def write_figure(path, samples, levels):
     """Relit distance over the naive baseline's relit error, against the photo difference, for
     every alternative of every sample (the true albedo kept, or rescaled and offset)."""
@@ -215,6 +227,7 @@ def measure(cfg, levels):
     log_speculars = [float(truth["log_specular"][0].mean()) for _, truth, _, _ in samples]
     support = ((math.exp(min(log_alphas)), math.exp(max(log_alphas))),
                (min(log_speculars), max(log_speculars)))
+    alphas = [a for a in ALPHAS if support[0][0] <= a <= support[0][1]]
     records = []
     for i, (_, truth, own, name) in enumerate(samples):
         truth = maps_at_size(truth, cfg.sample_size)
@@ -228,7 +241,8 @@ def measure(cfg, levels):
         records.append({"name": name, "probe": own,
                         "true_alpha": float(torch.exp(truth["log_roughness"][0, 0])),
                         "naive_relit_rmse": naive, "alternatives": alternatives,
-                        "bound": bound})
+                        "bound": bound,
+                        "roughness_unseen": roughness_unseen(alternatives, alphas, levels)})
         click.echo(f"{i + 1}/{len(samples)} {name}: bound {bound:.4f} naive {naive:.4f}",
                    err=True)
     naive_mean = float(np.mean([r["naive_relit_rmse"] for r in records]))
@@ -240,6 +254,7 @@ def measure(cfg, levels):
         "share_with_worse_than_naive_twin": float(np.mean([
             any(a["photo_levels"] < levels and a["relit_rmse"] > r["naive_relit_rmse"]
                 for a in r["alternatives"]) for r in records])),
+        "share_roughness_unseen": float(np.mean([r["roughness_unseen"] for r in records])),
     }
     return summary, records
 

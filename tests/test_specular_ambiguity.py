@@ -48,6 +48,8 @@ def test_under_constant_light_every_lobe_looks_alike_and_relights_alike():
     assert {a["alpha"] for a in alternatives} == {a for a in ambiguity.ALPHAS if a <= 0.5}
     assert max(a["photo_levels"] for a in alternatives) < 1.0
     assert max(a["relit_rmse"] for a in alternatives if not a["albedo_free"]) < 2e-3
+    assert ambiguity.roughness_unseen(alternatives, [a for a in ambiguity.ALPHAS if a <= 0.5],
+                                      1.0)
 
 
 def test_glow_moved_into_the_albedo_changes_the_relative_scale():
@@ -89,3 +91,5 @@ def test_a_lobe_the_photo_shows_is_no_look_alike():
     sharpest = [a for a in alternatives if a["alpha"] == 0.02]
     assert len(sharpest) == 2
     assert min(a["photo_levels"] for a in sharpest) > 1.0
+    assert not ambiguity.roughness_unseen(alternatives, [0.02, 0.3], 1.0)
+    assert ambiguity.roughness_unseen(alternatives, [0.3], 1.0)
