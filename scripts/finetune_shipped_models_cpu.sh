@@ -65,5 +65,5 @@ print(shipped_network_config(sys.argv[1]).albedo_network)" "$init")}
         --learning-rate "$LEARNING_RATE" --lr-gamma 1e-3 --epoch-samples 3200 \
         --checkpoint-every 200 --log-every 50
     "$BIN/python" scripts/export_model.py "$run" "$OUT_DIR/svbrdf-$class.safetensors" \
-        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, $SPECULAR specular, $POOLING pooling, $albedo_network albedo network, from $init"
+        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, $SPECULAR specular, $POOLING pooling, $albedo_network albedo network, sets of seeds ${SEEDS:-0 2 3 4}, from $init"
 done
