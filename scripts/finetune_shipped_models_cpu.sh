@@ -28,7 +28,7 @@ NETWORK=${NETWORK:-homogeneous} EPOCHS=${EPOCHS:-10} RELIT_WEIGHT=${RELIT_WEIGHT
 LEARNING_RATE=${LEARNING_RATE:-0.0005} ALBEDO_LOSS=${ALBEDO_LOSS:-linear} BIN=${BIN:-.venv/bin}
 SPECULAR=${SPECULAR:-own} INIT_DIR=${INIT_DIR:-models} POOLING=${POOLING:-flatten}
 mkdir -p "$OUT_DIR"
-link_sets() {  # link_sets CLASS SEED[:COUNT]...: make the sets if missing, link them into the maps
+link_sets() {  # link_sets CLASS SEED[:COUNT]...: make missing sets, link them into the maps
     local class=$1 seed count
     shift
     for each in "$@"; do

@@ -109,8 +109,8 @@ def sample_alternatives(truth, bank, own_index, novel_index, novel_rotation, sup
     relit RMSE between two of the truth and the alternatives whose photos differ from its by
     less than ``levels``. ``support``: ((lowest, highest) Ward alpha, (lowest, highest) mean log
     relative specular albedo) the alternatives stay in."""
-    (alpha_low, alpha_high), (log_specular_low, log_specular_high) = support
-    alphas = tuple(a for a in ALPHAS if alpha_low <= a <= alpha_high)
+    log_specular_low, log_specular_high = support[1]
+    alphas = grid_alphas(support)
     specular = torch.exp(truth["log_specular"][0])[None, :, None, None]
     true_alpha = float(torch.exp(truth["log_roughness"][0, 0]))
     probes = torch.cat([torch.as_tensor([own_index]), novel_index])
@@ -159,6 +159,12 @@ def sample_alternatives(truth, bank, own_index, novel_index, novel_rotation, sup
     diameter = max(float(torch.sqrt(torch.mean((a - b) ** 2)))
                    for a in look_alike for b in look_alike)
     return true_hdr, results, 0.5 * diameter
+
+
+def grid_alphas(support):
+    """The alphas of ``ALPHAS`` within the support's (lowest, highest) Ward alpha."""
+    low, high = support[0]
+    return tuple(a for a in ALPHAS if low <= a <= high)
 
 
 def roughness_unseen(alternatives, alphas, levels):
@@ -227,7 +233,7 @@ def measure(cfg, levels):
     log_speculars = [float(truth["log_specular"][0].mean()) for _, truth, _, _ in samples]
     support = ((math.exp(min(log_alphas)), math.exp(max(log_alphas))),
                (min(log_speculars), max(log_speculars)))
-    alphas = [a for a in ALPHAS if support[0][0] <= a <= support[0][1]]
+    alphas = grid_alphas(support)
     records = []
     for i, (_, truth, own, name) in enumerate(samples):
         truth = maps_at_size(truth, cfg.sample_size)
