@@ -17,6 +17,7 @@
 # ALBEDO_NETWORK (map or photo-affine: sa-train --albedo-network; another kind than the
 # starting file's starts a new albedo network, NETWORK must include albedo; default: the
 # starting file's),
+# RELIT_PARTNERS (truth or estimate: sa-train --relit-partners; default truth),
 # REAL_SETS (general only: a folder of the real sets the card lists), SEEDS (a class's
 # make-materials seeds, each SEED or SEED:COUNT sets, default "0 2 3 4" of 50 sets each).
 #
@@ -27,6 +28,7 @@ shift 3
 NETWORK=${NETWORK:-homogeneous} EPOCHS=${EPOCHS:-10} RELIT_WEIGHT=${RELIT_WEIGHT:-300}
 LEARNING_RATE=${LEARNING_RATE:-0.0005} ALBEDO_LOSS=${ALBEDO_LOSS:-linear} BIN=${BIN:-.venv/bin}
 SPECULAR=${SPECULAR:-own} INIT_DIR=${INIT_DIR:-models} POOLING=${POOLING:-flatten}
+RELIT_PARTNERS=${RELIT_PARTNERS:-truth}
 mkdir -p "$OUT_DIR"
 link_sets() {  # link_sets CLASS SEED[:COUNT]...: make missing sets, link them into the maps
     local class=$1 seed count
@@ -59,11 +61,12 @@ from train.model_files import shipped_network_config
 print(shipped_network_config(sys.argv[1]).albedo_network)" "$init")}
     "$BIN/sa-train" --init-from "$init" --train-networks "$NETWORK" \
         --homogeneous-pooling "$POOLING" --albedo-network "$albedo_network" \
-        --relit-loss-weight "$RELIT_WEIGHT" --relit-loss-size 64 --albedo-loss "$ALBEDO_LOSS" \
+        --relit-loss-weight "$RELIT_WEIGHT" --relit-loss-size 64 \
+        --relit-partners "$RELIT_PARTNERS" --albedo-loss "$ALBEDO_LOSS" \
         --"$SPECULAR"-specular --labeled-maps "$WORK/maps/$class" --probes "$PROBES" \
         --out "$run" --network compact --labeled-epochs "$EPOCHS" --self-augmented-epochs 0 \
         --learning-rate "$LEARNING_RATE" --lr-gamma 1e-3 --epoch-samples 3200 \
         --checkpoint-every 200 --log-every 50
     "$BIN/python" scripts/export_model.py "$run" "$OUT_DIR/svbrdf-$class.safetensors" \
-        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, $SPECULAR specular, $POOLING pooling, $albedo_network albedo network, sets of seeds ${SEEDS:-0 2 3 4}, from $init"
+        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, relit partners $RELIT_PARTNERS, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, $SPECULAR specular, $POOLING pooling, $albedo_network albedo network, sets of seeds ${SEEDS:-0 2 3 4}, from $init"
 done

@@ -339,6 +339,37 @@ def test_training_one_network_alone_leaves_the_others_as_they_were(trained_run, 
     assert wrong.exit_code != 0 and "name some of homogeneous, albedo, normal" in wrong.output
 
 
+def test_relit_partners_are_the_frozen_networks_estimates_or_the_truth(trained_run, dataset,
+                                                                      tmp_path):
+    """Training the homogeneous network alone: with relit partners "estimate" the relit loss
+    renders the frozen albedo and normal networks' estimates (eval mode), with "truth" the
+    labels; the two losses differ on the same minibatch."""
+    def run_with(partners):
+        return Run(TrainConfig(dataset=str(dataset), out=str(tmp_path / partners),
+                               probes=str(BUNDLED_PROBES), init_from=str(trained_run),
+                               network=load_network(trained_run).config, batch_size=4,
+                               train_networks=("homogeneous",), relit_loss_weight=10.0,
+                               relit_loss_size=16, relit_partners=partners))
+
+    estimate, truth = run_with("estimate"), run_with("truth")
+    batch = estimate.minibatch(0)
+    prediction = estimate.net(batch["image"], parts=("homogeneous",))
+    assert truth._with_partners(prediction, batch) is prediction
+    estimate.net.eval()
+    partners = estimate._with_partners(prediction, batch)
+    frozen = estimate.net(batch["image"], parts=("albedo", "normal"))
+    assert torch.equal(partners["albedo"], frozen["albedo"])
+    assert torch.equal(partners["normal"], frozen["normal"])
+    assert partners["log_specular"] is prediction["log_specular"]
+    assert not torch.allclose(frozen["albedo"], batch["albedo"], atol=0.05)
+    with torch.no_grad():
+        losses_ = [run._relit_loss(0, given, batch)
+                   for run, given in ((estimate, partners), (truth, prediction))]
+    assert abs(float(losses_[0]) - float(losses_[1])) > 1e-6
+    with pytest.raises(ValueError, match="relit_partners 'label'"):
+        run_with("label")
+
+
 def test_a_mean_pooled_homogeneous_network_starts_fresh_beside_loaded_map_networks(
         trained_run, dataset, tmp_path):
     """--init-from a model whose homogeneous network flattens its bottleneck, into a run whose

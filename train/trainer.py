@@ -60,6 +60,8 @@ log = logging.getLogger(__name__)
 RELIT_LOSS_STREAM = 1
 """Third seed word of the random stream of step ``index``'s relit-loss lightings:
 (seed, index, RELIT_LOSS_STREAM)."""
+RELIT_PARTNERS = ("truth", "estimate")
+"""What the relit loss renders for untrained networks' labels (TrainConfig.relit_partners)."""
 LABELED_COLORS_STREAM = 2 ** 32 - 1
 """Second seed word of the random stream of the labeled samples whose colors choose the
 unlabeled subset; step ``index`` uses (seed, index), and no run reaches this many steps."""
@@ -131,6 +133,11 @@ class TrainConfig:
     alone, as the paper trains."""
     relit_loss_size: int = 64
     """Side (px) the maps are box filtered to for the relit loss's renders."""
+    relit_partners: str = "truth"
+    """What the relit loss renders for the labels of the networks not trained (RELIT_PARTNERS):
+    "truth", the labels themselves; or "estimate", the frozen networks' own estimates, so that
+    a network learns the parameters that relight best beside the other networks' errors, as
+    the estimates are used together."""
     max_view_angle: float = 0.0
     """Largest view tilt (degrees) of the self-augmentation renders."""
     seed: int = 0
@@ -180,6 +187,8 @@ class Run:
         self.schedule = Schedule(steps_per_epoch, cfg.labeled_epochs, cfg.self_augmented_epochs,
                                  cfg.unlabeled_per_labeled if self.unlabeled is not None else 0)
 
+        if cfg.relit_partners not in RELIT_PARTNERS:
+            raise ValueError(f"relit_partners {cfg.relit_partners!r}: one of {RELIT_PARTNERS}")
         unknown = set(cfg.train_networks) - set(PARTS)
         if unknown or not cfg.train_networks:
             raise ValueError(f"train_networks {sorted(cfg.train_networks)}: name some of "
@@ -335,7 +344,8 @@ class Run:
         prediction = self.model(batch["image"], parts=self.cfg.train_networks)
         terms = losses(prediction, batch, self.cfg.albedo_loss)
         if self.cfg.relit_loss_weight > 0:
-            terms["relit"] = self._relit_loss(index, prediction, batch)
+            terms["relit"] = self._relit_loss(index, self._with_partners(prediction, batch),
+                                              batch)
             terms["total"] = terms["total"] + self.cfg.relit_loss_weight * terms["relit"]
         self.optimizer.zero_grad(set_to_none=True)
         terms["total"].backward()
@@ -343,6 +353,17 @@ class Run:
         self.scheduler.step()
         self.step = index + 1
         return self.place.mean({name: value.detach().item() for name, value in terms.items()})
+
+    def _with_partners(self, prediction, batch):
+        """``prediction`` with the frozen networks' estimates added when the relit loss takes
+        them as the partners (TrainConfig.relit_partners); computed without gradient, their
+        batch norm in eval mode."""
+        frozen = tuple(name for name in PARTS if name not in self.cfg.train_networks)
+        if self.cfg.relit_partners == "truth" or not frozen:
+            return prediction
+        with torch.no_grad():
+            partners = self.model(batch["image"], parts=frozen)
+        return partners | prediction
 
     def _relit_loss(self, index, prediction, batch):
         """The relit loss of step ``index``, under lightings drawn for the global minibatch

@@ -12,7 +12,7 @@ from train.losses import ALBEDO_LOSSES
 from train.networks import (ALBEDO_NETWORKS, COMPACT_CONFIG, HOMOGENEOUS_POOLINGS, PARTS,
                             SMALL_CPU_CONFIG, NetworkConfig)
 from train.optimization import OptimizerConfig
-from train.trainer import TrainConfig, run
+from train.trainer import RELIT_PARTNERS, TrainConfig, run
 
 NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_CPU_CONFIG}
 
@@ -71,6 +71,11 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
                    "lighting) added to the parameter losses.")
 @click.option("--relit-loss-size", default=64, show_default=True,
               help="Side (px) of the relit loss's renders.")
+@click.option("--relit-partners", type=click.Choice(RELIT_PARTNERS), default="truth",
+              show_default=True,
+              help="What the relit loss renders for the labels of networks not trained: the "
+                   "truth's, or the frozen networks' own estimates (each network then learns "
+                   "what relights best beside the others' errors).")
 @click.option("--max-view-angle", default=0.0, show_default=True)
 @click.option("--seed", default=0, show_default=True)
 @click.option("--checkpoint-every", default=500, show_default=True)
