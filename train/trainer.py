@@ -197,10 +197,9 @@ class Run:
         self.net = SVBRDFNet(cfg.network).to(self.device)
         if cfg.init_from is not None:
             self._initialize_from(cfg.init_from)
-        self.frozen = [getattr(self.net, name) for name in PARTS
-                       if name not in cfg.train_networks]
-        for network in self.frozen:
-            network.requires_grad_(False)
+        self.frozen_parts = tuple(name for name in PARTS if name not in cfg.train_networks)
+        for name in self.frozen_parts:
+            getattr(self.net, name).requires_grad_(False)
         if place.enabled:
             distributed.synchronize_batch_norm(self.net)  # before the optimizer holds its weights
         self.model = self.net
@@ -339,8 +338,8 @@ class Run:
         """The optimizer step ``index`` on ``batch`` (this process's shard of its minibatch);
         returns the losses of the global minibatch."""
         self.model.train()
-        for network in self.frozen:
-            network.eval()  # frozen batch norm statistics
+        for name in self.frozen_parts:
+            getattr(self.net, name).eval()  # frozen batch norm statistics
         prediction = self.model(batch["image"], parts=self.cfg.train_networks)
         terms = losses(prediction, batch, self.cfg.albedo_loss)
         if self.cfg.relit_loss_weight > 0:
@@ -358,11 +357,10 @@ class Run:
         """``prediction`` with the frozen networks' estimates added when the relit loss takes
         them as the partners (TrainConfig.relit_partners); computed without gradient, their
         batch norm in eval mode."""
-        frozen = tuple(name for name in PARTS if name not in self.cfg.train_networks)
-        if self.cfg.relit_partners == "truth" or not frozen:
+        if self.cfg.relit_partners == "truth" or not self.frozen_parts:
             return prediction
         with torch.no_grad():
-            partners = self.model(batch["image"], parts=frozen)
+            partners = self.model(batch["image"], parts=self.frozen_parts)
         return partners | prediction
 
     def _relit_loss(self, index, prediction, batch):
