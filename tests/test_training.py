@@ -13,7 +13,7 @@ from click.testing import CliRunner
 from render.cli.render_dataset import main as render_dataset
 from render.common.exposure import expose
 from render.common.probes import find_probes, load_probe
-from render.materials.reduced_svbrdf import load_material
+from render.materials.reduced_svbrdf import find_materials, load_material, resample
 from render.mitsuba_reference.scene import PlanarSampleRenderer
 from render.torch_renderer.renderer import ProbeBank, render
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO, write_png
@@ -480,21 +480,44 @@ def test_a_crop_at_scale_two_is_the_whole_map_box_filtered_to_half_its_size():
                          crop_scales=(2,))
     batch = sampler.batch(np.random.default_rng(5), 3)
     materials = {m.name: m for m in sampler.materials}  # square, 32 px: one crop covers it
+    # (its maps are float16: the sampler computes in float32 from them)
     for i, sample in enumerate(batch["provenance"]):
         full = materials[sample["material"]]
-        whole = full.albedo.reshape(16, 2, 16, 2, 3).mean((1, 3))
+        whole = full.albedo.astype(np.float64).reshape(16, 2, 16, 2, 3).mean((1, 3))
         expected = np.sort((whole / (2 * whole.mean())).ravel())
         # A quarter turn permutes the pixels: compare the sorted values.
         np.testing.assert_allclose(np.sort(batch["albedo"][i].numpy().ravel()), expected,
                                    rtol=1e-5)
         normal = batch["normal"][i].numpy()
         np.testing.assert_allclose(np.linalg.norm(normal, axis=0), 1.0, atol=1e-5)
-        pooled = full.normal.reshape(16, 2, 16, 2, 3).mean((1, 3))
+        pooled = full.normal.astype(np.float64).reshape(16, 2, 16, 2, 3).mean((1, 3))
         pooled_z = pooled[..., 2] / np.linalg.norm(pooled, axis=2)  # turns keep n_z
         np.testing.assert_allclose(np.sort(normal[2].ravel()), np.sort(pooled_z.ravel()),
                                    atol=1e-5)
     with pytest.raises(ValueError, match="smaller than the largest crop"):
         MapSampler(BUNDLED_MATERIALS, bank, [0], size=16, render_size=32, crop_scales=(1, 3))
+
+
+def test_the_sampler_holds_half_precision_maps_and_its_crops_match_the_full_precision_ones():
+    """Crops that cover the whole 16 px map: the albedo labels are those of the float32 maps
+    to float16's rounding (a quarter turn permutes pixels: sorted values compared), the
+    normals unit vectors with the same z values."""
+    bank = ProbeBank([load_probe(path).radiance for path in find_probes(BUNDLED_PROBES)])
+    sampler = MapSampler(BUNDLED_MATERIALS, bank, [0], size=16, render_size=16)
+    assert all(m.albedo.dtype == np.float16 and m.normal.dtype == np.float16
+               for m in sampler.materials)
+    full = {m.name: m for m in (resample(load_material(path), 16)
+                                for path in find_materials(BUNDLED_MATERIALS))}
+    batch = sampler.batch(np.random.default_rng(3), 6)
+    for i, sample in enumerate(batch["provenance"]):
+        albedo, normal = full[sample["material"]].albedo, full[sample["material"]].normal
+        assert batch["albedo"].dtype == torch.float32
+        np.testing.assert_allclose(np.sort(batch["albedo"][i].numpy().ravel()),
+                                   np.sort((albedo / (2 * albedo.mean())).ravel()), rtol=2e-3)
+        np.testing.assert_allclose(np.linalg.norm(batch["normal"][i].numpy(), axis=0), 1.0,
+                                   atol=1e-5)
+        np.testing.assert_allclose(np.sort(batch["normal"][i, 2].numpy().ravel()),
+                                   np.sort(normal[..., 2].ravel()), atol=2e-3)
 
 
 def test_mixed_specular_labels_pair_each_texture_with_other_materials_specular():
