@@ -72,20 +72,38 @@ def maps_at_size(parameters, size):
     return parameters | {"albedo": albedo, "normal": normal}
 
 
-def relit_loss(prediction, target, probes, probe_index, rotation_deg, size):
-    """How differently the prediction and the truth look under other lighting: the mean squared
-    difference of log(1 + x) of their renders under the given probes and rotations (each
-    sample its own), both exposed as the truth's render is exposed and not clamped (a too
-    bright estimate still gets a gradient; the log compresses highlights). Maps are box
-    filtered to ``size`` px first; a label ``prediction`` lacks (a network not trained) is
-    taken from ``target``. Of the evaluation's relit error this differs only in the log and the
-    missing clamp."""
+RELIT_LOSS_FORMS = ("log", "rmse")
+"""How relit_loss compares the two renders."""
+RELIT_CLAMP_LEAK = 0.01
+"""Slope of the estimate's render beyond [0, 1] in the "rmse" relit loss (where the evaluation
+clamps it flat), so that a too bright estimate is still pulled down."""
+
+
+def relit_loss(prediction, target, probes, probe_index, rotation_deg, size, form="log"):
+    """How differently the prediction and the truth look under other lighting, both rendered
+    under the given probes and rotations (each sample its own) and exposed as the truth's
+    render is exposed. Maps are box filtered to ``size`` px first; a label ``prediction``
+    lacks (a network not trained) is taken from ``target``. ``form`` (RELIT_LOSS_FORMS):
+
+    - "log": the mean squared difference of log(1 + x) of the renders, not clamped (a too
+      bright estimate still gets a gradient; the log compresses highlights);
+    - "rmse": the evaluation's relit error itself (train.estimate_evaluation): per sample the
+      root mean squared difference of the renders clamped to [0, 1], averaged over samples;
+      the estimate's clamp leaks (RELIT_CLAMP_LEAK). Squared errors are summed within a
+      sample before the root, so a few badly relit samples weigh less than in "log"."""
+    if form not in RELIT_LOSS_FORMS:
+        raise ValueError(f"relit loss form {form!r}: one of {RELIT_LOSS_FORMS}")
     truth = maps_at_size({name: target[name] for name in LABELS}, size)
     estimate = maps_at_size({name: prediction.get(name, target[name]) for name in LABELS}, size)
     truth_hdr = render_parameters(truth, probes, probe_index, rotation_deg).detach()
     estimate_hdr = render_parameters(estimate, probes, probe_index, rotation_deg)
     exposed = [expose(hdr, reference=truth_hdr, clamp=False) for hdr in (truth_hdr, estimate_hdr)]
-    return torch.mean((torch.log1p(exposed[1]) - torch.log1p(exposed[0])) ** 2)
+    if form == "log":
+        return torch.mean((torch.log1p(exposed[1]) - torch.log1p(exposed[0])) ** 2)
+    clamped = exposed[1].clamp(0.0, 1.0)
+    leaky = clamped + RELIT_CLAMP_LEAK * (exposed[1] - clamped)
+    squared = (leaky - exposed[0].clamp(0.0, 1.0)) ** 2
+    return torch.sqrt(squared.mean((1, 2, 3)) + 1e-12).mean()
 
 
 MAX_RELATIVE_ALBEDO = 4.0

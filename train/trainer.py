@@ -46,7 +46,7 @@ from train import distributed  # noqa: E402
 from train.checkpoints import checkpoint_files, load_checkpoint, save_checkpoint  # noqa: E402
 from train.evaluation import evaluate, stack_items  # noqa: E402
 from train.labeled_dataset import LabeledDataset  # noqa: E402
-from train.losses import ALBEDO_LOSSES, losses, relit_loss  # noqa: E402
+from train.losses import ALBEDO_LOSSES, RELIT_LOSS_FORMS, losses, relit_loss  # noqa: E402
 from train.map_samples import MapSampler  # noqa: E402
 from train.model_files import load_network  # noqa: E402
 from train.networks import PARTS, NetworkConfig, SVBRDFNet  # noqa: E402
@@ -133,6 +133,10 @@ class TrainConfig:
     alone, as the paper trains."""
     relit_loss_size: int = 64
     """Side (px) the maps are box filtered to for the relit loss's renders."""
+    relit_loss_form: str = "log"
+    """How the relit loss compares the renders (train.losses.RELIT_LOSS_FORMS): "log", the
+    mean squared difference of log(1 + x); "rmse", the evaluation's relit error (clamped
+    renders, a root per sample)."""
     relit_partners: str = "truth"
     """What the relit loss renders for the labels of the networks not trained (RELIT_PARTNERS):
     "truth", the labels themselves; or "estimate", the frozen networks' own estimates, so that
@@ -158,6 +162,9 @@ class Run:
                              f"{place.world_size} processes")
         if cfg.albedo_loss not in ALBEDO_LOSSES:
             raise ValueError(f"albedo_loss {cfg.albedo_loss!r}: one of {ALBEDO_LOSSES}")
+        if cfg.relit_loss_form not in RELIT_LOSS_FORMS:
+            raise ValueError(f"relit_loss_form {cfg.relit_loss_form!r}: one of "
+                             f"{RELIT_LOSS_FORMS}")
         if cfg.dataset is None and cfg.labeled_maps is None:
             raise InputError(cfg.out, "give a dataset, labeled maps, or both")
         self.train_set = LabeledDataset(cfg.dataset, "train") if cfg.dataset else []
@@ -371,7 +378,8 @@ class Run:
                                                         self.augmentation_probes)
         shard = self.place.shard
         return relit_loss(prediction, batch, self.probes, shard(probe_index),
-                          shard(rotation_deg), self.cfg.relit_loss_size)
+                          shard(rotation_deg), self.cfg.relit_loss_size,
+                          self.cfg.relit_loss_form)
 
 
 def run(cfg):

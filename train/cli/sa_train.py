@@ -8,7 +8,7 @@ import os
 import click
 
 from render.common.errors import InputError
-from train.losses import ALBEDO_LOSSES
+from train.losses import ALBEDO_LOSSES, RELIT_LOSS_FORMS
 from train.networks import (ALBEDO_NETWORKS, COMPACT_CONFIG, HOMOGENEOUS_POOLINGS, PARTS,
                             SMALL_CPU_CONFIG, NetworkConfig)
 from train.optimization import OptimizerConfig
@@ -71,6 +71,10 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
                    "lighting) added to the parameter losses.")
 @click.option("--relit-loss-size", default=64, show_default=True,
               help="Side (px) of the relit loss's renders.")
+@click.option("--relit-loss-form", type=click.Choice(RELIT_LOSS_FORMS), default="log",
+              show_default=True,
+              help="How the relit loss compares the renders: squared difference of log(1 + x) "
+                   "(log), or the evaluation's relit RMSE of the clamped renders (rmse).")
 @click.option("--relit-partners", type=click.Choice(RELIT_PARTNERS), default="truth",
               show_default=True,
               help="What the relit loss renders for the labels of networks not trained: the "
