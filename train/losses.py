@@ -89,7 +89,7 @@ def relit_loss(prediction, target, probes, probe_index, rotation_deg, size, form
       bright estimate still gets a gradient; the log compresses highlights);
     - "rmse": the evaluation's relit error itself (train.estimate_evaluation): per sample the
       root mean squared difference of the renders clamped to [0, 1], averaged over samples;
-      the estimate's clamp leaks (RELIT_CLAMP_LEAK). Squared errors are summed within a
+      the estimate's clamp leaks (RELIT_CLAMP_LEAK). Squared errors are averaged within a
       sample before the root, so a few badly relit samples weigh less than in "log"."""
     if form not in RELIT_LOSS_FORMS:
         raise ValueError(f"relit loss form {form!r}: one of {RELIT_LOSS_FORMS}")
