@@ -165,6 +165,8 @@ class Run:
         if cfg.relit_loss_form not in RELIT_LOSS_FORMS:
             raise ValueError(f"relit_loss_form {cfg.relit_loss_form!r}: one of "
                              f"{RELIT_LOSS_FORMS}")
+        if cfg.relit_partners not in RELIT_PARTNERS:
+            raise ValueError(f"relit_partners {cfg.relit_partners!r}: one of {RELIT_PARTNERS}")
         if cfg.dataset is None and cfg.labeled_maps is None:
             raise InputError(cfg.out, "give a dataset, labeled maps, or both")
         self.train_set = LabeledDataset(cfg.dataset, "train") if cfg.dataset else []
@@ -194,8 +196,6 @@ class Run:
         self.schedule = Schedule(steps_per_epoch, cfg.labeled_epochs, cfg.self_augmented_epochs,
                                  cfg.unlabeled_per_labeled if self.unlabeled is not None else 0)
 
-        if cfg.relit_partners not in RELIT_PARTNERS:
-            raise ValueError(f"relit_partners {cfg.relit_partners!r}: one of {RELIT_PARTNERS}")
         unknown = set(cfg.train_networks) - set(PARTS)
         if unknown or not cfg.train_networks:
             raise ValueError(f"train_networks {sorted(cfg.train_networks)}: name some of "
