@@ -19,6 +19,7 @@
 # starting file's),
 # RELIT_PARTNERS (truth or estimate: sa-train --relit-partners; default truth),
 # RELIT_FORM (log or rmse: sa-train --relit-loss-form; default log),
+# PROBE_TILTS (tilted copies of each training probe: sa-train --probe-tilts; default 0),
 # REAL_SETS (general only: a folder of the real sets the card lists), SEEDS (a class's
 # make-materials seeds, each SEED or SEED:COUNT sets, default "0 2 3 4" of 50 sets each).
 #
@@ -30,6 +31,7 @@ NETWORK=${NETWORK:-homogeneous} EPOCHS=${EPOCHS:-10} RELIT_WEIGHT=${RELIT_WEIGHT
 LEARNING_RATE=${LEARNING_RATE:-0.0005} ALBEDO_LOSS=${ALBEDO_LOSS:-linear} BIN=${BIN:-.venv/bin}
 SPECULAR=${SPECULAR:-own} INIT_DIR=${INIT_DIR:-models} POOLING=${POOLING:-flatten}
 RELIT_PARTNERS=${RELIT_PARTNERS:-truth} RELIT_FORM=${RELIT_FORM:-log}
+PROBE_TILTS=${PROBE_TILTS:-0}
 mkdir -p "$OUT_DIR"
 link_sets() {  # link_sets CLASS SEED[:COUNT]...: make missing sets, link them into the maps
     local class=$1 seed count
@@ -64,11 +66,11 @@ print(shipped_network_config(sys.argv[1]).albedo_network)" "$init")}
         --homogeneous-pooling "$POOLING" --albedo-network "$albedo_network" \
         --relit-loss-weight "$RELIT_WEIGHT" --relit-loss-size 64 \
         --relit-partners "$RELIT_PARTNERS" --relit-loss-form "$RELIT_FORM" \
-        --albedo-loss "$ALBEDO_LOSS" \
+        --albedo-loss "$ALBEDO_LOSS" --probe-tilts "$PROBE_TILTS" \
         --"$SPECULAR"-specular --labeled-maps "$WORK/maps/$class" --probes "$PROBES" \
         --out "$run" --network compact --labeled-epochs "$EPOCHS" --self-augmented-epochs 0 \
         --learning-rate "$LEARNING_RATE" --lr-gamma 1e-3 --epoch-samples 3200 \
         --checkpoint-every 200 --log-every 50
     "$BIN/python" scripts/export_model.py "$run" "$OUT_DIR/svbrdf-$class.safetensors" \
-        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, relit partners $RELIT_PARTNERS, relit loss $RELIT_FORM, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, $SPECULAR specular, $POOLING pooling, $albedo_network albedo network, sets of seeds ${SEEDS:-0 2 3 4}, from $init"
+        --class "$class" --recipe "scripts/finetune_shipped_models_cpu.sh: $NETWORK, $EPOCHS epochs, relit weight $RELIT_WEIGHT, relit partners $RELIT_PARTNERS, relit loss $RELIT_FORM, $PROBE_TILTS tilted probe copies, lr $LEARNING_RATE, albedo loss $ALBEDO_LOSS, $SPECULAR specular, $POOLING pooling, $albedo_network albedo network, sets of seeds ${SEEDS:-0 2 3 4}, from $init"
 done

@@ -1,4 +1,4 @@
-"""Closed-form checks of the Mitsuba pipeline: known answers, not reference images.
+"""Closed-form checks of the Mitsuba pipeline and its probes: known answers, not reference images.
 
 Tolerances: Monte Carlo noise at the sample counts used here (measured: below 0.3% on image
 means, about 1% per pixel), plus float16-free float32 arithmetic.
@@ -7,7 +7,8 @@ means, about 1% per pixel), plus float16-free float32 arithmetic.
 import numpy as np
 import pytest
 
-from render.common.probes import Probe, find_probes, load_probe, plane_irradiance
+from render.common.probes import (Probe, find_probes, load_probe, pixel_directions,
+                                  plane_irradiance, tilted)
 from render.materials.reduced_svbrdf import ReducedSVBRDF
 from render.mitsuba_reference.scene import PlanarSampleRenderer
 from tests.conftest import BUNDLED_PROBES, make_probe
@@ -110,3 +111,37 @@ def test_a_reused_renderer_renders_what_a_fresh_one_does(mi):
     whole = PlanarSampleRenderer("llvm_ad_rgb", spp=64).render(
         second, probes[1], 70.0, view=(0.2, -0.1, 1.0), seed=2)
     assert np.abs(image - whole).mean() < 0.2 * whole.mean()  # 0.45 with strips misplaced
+
+
+def _sphere_moments(radiance):
+    """Total energy over the sphere (solid-angle weighted) and the energy-weighted mean
+    direction of a probe's radiance (first channel)."""
+    height, width = radiance.shape[:2]
+    solid_angle = np.sin(np.pi * np.arange(height) / (height - 1))[:, None]
+    energy = radiance[..., 0] * solid_angle
+    mean = (pixel_directions(height, width) * energy[..., None]).sum((0, 1)) / energy.sum()
+    return energy.sum(), mean / np.linalg.norm(mean)
+
+
+def test_a_tilted_probe_moves_its_lamp_by_the_tilt_and_keeps_its_energy():
+    """A small lamp at 30 degrees from the zenith on a dim sky, tilted 40 degrees about the
+    horizontal axis at azimuth 70: the lamp lands where that rotation takes its direction (to
+    within a degree), the energy over the sphere stays (to 1%), and tilting back returns it."""
+    height, width = 96, 192
+    directions = pixel_directions(height, width)
+    lamp = np.array([np.sin(np.radians(30)), 0.0, np.cos(np.radians(30))])
+    radiance = 0.01 + 50.0 * np.exp((directions @ lamp - 1.0) / 0.002)
+    radiance = np.repeat(radiance[..., None], 3, axis=2).astype(np.float32)
+    axis = np.array([np.cos(np.radians(70)), np.sin(np.radians(70)), 0.0])
+    angle = np.radians(40)
+    expected = (np.cos(angle) * lamp + np.sin(angle) * np.cross(axis, lamp)
+                + (1 - np.cos(angle)) * (axis @ lamp) * axis)
+
+    energy, _ = _sphere_moments(radiance - 0.01)
+    turned = tilted(radiance, 40.0, 70.0)
+    turned_energy, turned_direction = _sphere_moments(turned - 0.01)
+    assert np.degrees(np.arccos(turned_direction @ expected)) < 1.0
+    assert turned_energy == pytest.approx(energy, rel=0.01)
+    _, back = _sphere_moments(tilted(turned, -40.0, 70.0) - 0.01)
+    assert np.degrees(np.arccos(back @ lamp)) < 1.0
+    np.testing.assert_allclose(tilted(radiance, 0.0, 70.0)[1:], radiance[1:], atol=1e-5)

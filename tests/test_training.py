@@ -12,7 +12,7 @@ from click.testing import CliRunner
 
 from render.cli.render_dataset import main as render_dataset
 from render.common.exposure import expose
-from render.common.probes import find_probes, load_probe
+from render.common.probes import find_probes, load_probe, plane_irradiance, tilted
 from render.materials.reduced_svbrdf import find_materials, load_material, resample
 from render.mitsuba_reference.scene import PlanarSampleRenderer
 from render.torch_renderer.renderer import ProbeBank, render
@@ -294,6 +294,39 @@ def test_self_augmentation_renders_under_the_training_probes_only(dataset, tmp_p
     assert test_probes and not test_probes & train_probes
     assert {run.probe_names[i] for i in run.augmentation_probes} == train_probes
     assert len(run.probe_names) == len(train_probes) + len(test_probes)  # relit evaluation: all
+
+
+def test_tilted_probe_copies_join_the_training_probes_only(dataset, tmp_path):
+    """With probe_tilts = 2 each training probe gets two tilted copies (render.common.probes.
+    tilted, tilts within max_probe_tilt), which labeled renders, the relit loss and
+    self-augmentation use; the test split's probes get none and stay out of training."""
+    network = NetworkConfig(input_size=32, width=8, max_width=64, levels=3, hidden=256)
+    plain = Run(TrainConfig(dataset=str(dataset), out=str(tmp_path / "plain"),
+                            probes=str(BUNDLED_PROBES), network=network, batch_size=8))
+    run = Run(TrainConfig(dataset=str(dataset), out=str(tmp_path / "run"),
+                          probes=str(BUNDLED_PROBES), network=network, batch_size=8,
+                          probe_tilts=2, max_probe_tilt=30.0))
+    originals = len(plain.probe_names)
+    train_probes = [plain.probe_names[i] for i in plain.augmentation_probes]
+    assert run.probe_names[:originals] == plain.probe_names
+    copies = run.probe_names[originals:]
+    assert len(run.probes) == originals + 2 * len(train_probes) == len(run.probe_names)
+    assert sorted(name.split("-tilt")[0] for name in copies) == sorted(2 * train_probes)
+    assert all(0 <= int(name.split("-tilt")[1].split("-")[0]) <= 30 for name in copies)
+    assert run.augmentation_probes == plain.augmentation_probes + list(
+        range(originals, len(run.probe_names)))
+    np.testing.assert_array_equal(run.probes.radiance[:originals], plain.probes.radiance)
+    first_copy = run.probe_names[originals]
+    source = plain.probe_names.index(first_copy.split("-tilt")[0])
+    tilt, axis = (float(part) for part in first_copy.split("-tilt")[1].split("-axis"))
+    expected = tilted(load_probe(find_probes(BUNDLED_PROBES)[source]).radiance, tilt, axis)
+    np.testing.assert_allclose(  # the bank white-balances each copy again
+        run.probes.radiance[originals], expected * (np.pi / plane_irradiance(expected)),
+        rtol=1e-5, atol=1e-6)
+    with pytest.raises(ValueError, match="max_probe_tilt 200"):
+        Run(TrainConfig(dataset=str(dataset), out=str(tmp_path / "bad"),
+                        probes=str(BUNDLED_PROBES), network=network, probe_tilts=1,
+                        max_probe_tilt=200.0))
 
 
 def test_training_on_labeled_maps_rendered_on_the_fly_and_fine_tuning(tmp_path):

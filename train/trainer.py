@@ -39,7 +39,7 @@ from torch.utils.tensorboard import SummaryWriter  # noqa: E402
 
 from render.common.atomic_files import atomic_path, write_json  # noqa: E402
 from render.common.errors import InputError  # noqa: E402
-from render.common.probes import find_probes, load_probe  # noqa: E402
+from render.common.probes import find_probes, load_probe, tilted  # noqa: E402
 from render.common.resume import continue_folder  # noqa: E402
 from render.torch_renderer.renderer import ProbeBank  # noqa: E402
 from train import distributed  # noqa: E402
@@ -65,6 +65,8 @@ RELIT_PARTNERS = ("truth", "estimate")
 LABELED_COLORS_STREAM = 2 ** 32 - 1
 """Second seed word of the random stream of the labeled samples whose colors choose the
 unlabeled subset; step ``index`` uses (seed, index), and no run reaches this many steps."""
+PROBE_TILTS_STREAM = 2 ** 32 - 2
+"""Second seed word of the random stream of the tilted probe copies (TrainConfig.probe_tilts)."""
 FRESH_WHEN_CHANGED = {"homogeneous_pooling": "homogeneous", "albedo_network": "albedo"}
 """Network configuration fields in which an ``init_from`` model may differ from the run, and
 the network each shapes (which then starts fresh)."""
@@ -144,6 +146,14 @@ class TrainConfig:
     the estimates are used together."""
     max_view_angle: float = 0.0
     """Largest view tilt (degrees) of the self-augmentation renders."""
+    probe_tilts: int = 0
+    """Tilted copies of each probe that labeled renders, the relit loss and self-augmentation
+    render under (render.common.probes.tilted), added to the probes themselves: the probe's
+    zenith moved to a direction drawn uniformly over the cap within ``max_probe_tilt`` of +z.
+    A flat sample under an overhead camera mirrors its probe's zenith, and few real probes
+    have their brightest light there: a tilted copy brings a low sun or a lamp overhead."""
+    max_probe_tilt: float = 60.0
+    """Largest tilt (degrees) of the copies of ``probe_tilts``."""
     seed: int = 0
     checkpoint_every: int = 500
     """Optimizer steps between checkpoints (one is also written at every epoch's end)."""
@@ -167,15 +177,19 @@ class Run:
                              f"{RELIT_LOSS_FORMS}")
         if cfg.relit_partners not in RELIT_PARTNERS:
             raise ValueError(f"relit_partners {cfg.relit_partners!r}: one of {RELIT_PARTNERS}")
+        if cfg.probe_tilts < 0 or not 0 <= cfg.max_probe_tilt <= 180:
+            raise ValueError(f"probe_tilts {cfg.probe_tilts} must be >= 0 and max_probe_tilt "
+                             f"{cfg.max_probe_tilt} within [0, 180] degrees")
         if cfg.dataset is None and cfg.labeled_maps is None:
             raise InputError(cfg.out, "give a dataset, labeled maps, or both")
         self.train_set = LabeledDataset(cfg.dataset, "train") if cfg.dataset else []
         self.test_set = LabeledDataset(cfg.dataset, "test") if cfg.dataset else []
         probe_files = find_probes(cfg.probes)
         self.probe_names = [path.stem for path in probe_files]
-        self.probes = ProbeBank([load_probe(path).radiance for path in probe_files],
-                                device=self.device)
+        radiances = [load_probe(path).radiance for path in probe_files]
         self.augmentation_probes = self._augmentation_probes()
+        self._add_tilted_probes(radiances)
+        self.probes = ProbeBank(radiances, device=self.device)
         if cfg.labeled_maps is not None:
             self.maps = MapSampler(cfg.labeled_maps, self.probes, self.augmentation_probes,
                                    cfg.network.input_size, cfg.render_size, cfg.max_view_angle,
@@ -278,6 +292,21 @@ class Run:
                         len(self.probe_names))
             return list(range(len(self.probe_names)))
         return chosen
+
+    def _add_tilted_probes(self, radiances):
+        """Append ``cfg.probe_tilts`` tilted copies of each augmentation probe to
+        ``radiances``, ``probe_names`` (the copy's name says its tilt and axis) and
+        ``augmentation_probes``."""
+        rng = np.random.default_rng([self.cfg.seed, PROBE_TILTS_STREAM])
+        lowest_cosine = np.cos(np.radians(self.cfg.max_probe_tilt))
+        for index in list(self.augmentation_probes):
+            for _ in range(self.cfg.probe_tilts):
+                tilt = round(float(np.degrees(np.arccos(rng.uniform(lowest_cosine, 1.0)))))
+                azimuth = round(float(rng.uniform(0.0, 360.0)))  # whole degrees, as named
+                radiances.append(tilted(radiances[index], tilt, azimuth))
+                name = f"{self.probe_names[index]}-tilt{tilt}-axis{azimuth}"
+                self.probe_names.append(name)
+                self.augmentation_probes.append(len(radiances) - 1)
 
     def _unlabeled(self):
         if self.cfg.unlabeled is None:

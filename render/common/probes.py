@@ -116,6 +116,35 @@ def plane_irradiance(radiance):
     return band @ row_sums
 
 
+def tilted(radiance, tilt_deg, azimuth_deg):
+    """``radiance`` (H, 2H, 3) of a probe turned by ``tilt_deg`` about the horizontal axis at
+    azimuth ``azimuth_deg`` (degrees; the axis (cos a, sin a, 0), turned right-handedly), so
+    that the probe's zenith moves to a direction ``tilt_deg`` from +z (a low sun can come
+    overhead). Resampled from the probe's bilinear interpolant (module docstring) at the new
+    samples' directions; not white-balanced again (load_probe and the torch renderer's
+    ProbeBank balance what they are given). The zenith row, one direction, takes the value at
+    one azimuth."""
+    height, width = radiance.shape[:2]
+    axis = np.radians(azimuth_deg)
+    u = np.array([np.cos(axis), np.sin(axis), 0.0])
+    angle = np.radians(tilt_deg)
+    cross = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+    turn = (np.cos(angle) * np.eye(3) + np.sin(angle) * cross
+            + (1 - np.cos(angle)) * np.outer(u, u))  # Rodrigues' rotation about u
+    source = pixel_directions(height, width) @ turn  # turn^T applied to each direction
+    theta = np.arccos(np.clip(source[..., 2], -1.0, 1.0))
+    phi = np.arctan2(source[..., 1], source[..., 0])
+    row = theta * (height - 1) / np.pi
+    col = np.mod(-phi * width / (2 * np.pi) - 0.5, width)
+    r0 = np.minimum(np.floor(row).astype(int), height - 2)
+    c0 = np.floor(col).astype(int) % width
+    fr, fc = (row - r0)[..., None], (col - np.floor(col))[..., None]
+    c1 = (c0 + 1) % width
+    top = radiance[r0, c0] * (1 - fc) + radiance[r0, c1] * fc
+    bottom = radiance[r0 + 1, c0] * (1 - fc) + radiance[r0 + 1, c1] * fc
+    return (top * (1 - fr) + bottom * fr).astype(radiance.dtype)
+
+
 def pixel_directions(height, width, rotation_deg=0.0):
     """World directions (H, W, 3) of the probe's samples when rotated by ``rotation_deg``."""
     theta = np.pi * np.arange(height) / (height - 1)

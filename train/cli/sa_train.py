@@ -81,6 +81,11 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
                    "truth's, or the frozen networks' own estimates (each network then learns "
                    "what relights best beside the others' errors).")
 @click.option("--max-view-angle", default=0.0, show_default=True)
+@click.option("--probe-tilts", default=0, show_default=True,
+              help="Tilted copies of each training probe added to them (a low sun or lamp "
+                   "brought overhead, where a flat sample mirrors it).")
+@click.option("--max-probe-tilt", default=60.0, show_default=True,
+              help="Largest tilt (degrees) of those copies.")
 @click.option("--seed", default=0, show_default=True)
 @click.option("--checkpoint-every", default=500, show_default=True)
 @click.option("--log-every", default=50, show_default=True)
