@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from render.common.errors import InputError, require_file, require_folder
 from render.common.images import HDR_SUFFIXES, read_image
@@ -126,12 +127,9 @@ def tilted(radiance, tilt_deg, azimuth_deg):
     one azimuth."""
     height, width = radiance.shape[:2]
     axis = np.radians(azimuth_deg)
-    u = np.array([np.cos(axis), np.sin(axis), 0.0])
-    angle = np.radians(tilt_deg)
-    cross = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
-    turn = (np.cos(angle) * np.eye(3) + np.sin(angle) * cross
-            + (1 - np.cos(angle)) * np.outer(u, u))  # Rodrigues' rotation about u
-    source = pixel_directions(height, width) @ turn  # turn^T applied to each direction
+    turn = Rotation.from_rotvec(np.radians(tilt_deg) * np.array([np.cos(axis), np.sin(axis), 0.0]))
+    source = turn.inv().apply(pixel_directions(height, width).reshape(-1, 3)).reshape(
+        height, width, 3)  # where each new sample's light came from
     theta = np.arccos(np.clip(source[..., 2], -1.0, 1.0))
     phi = np.arctan2(source[..., 1], source[..., 0])
     row = theta * (height - 1) / np.pi
