@@ -1,6 +1,7 @@
 """Benchmark of SVBRDF-net inference: milliseconds per photo (network forward pass only, batch
 of one, after warm-up) for the paper's, the compact (shipped models; with a U-Net or a
-photo-affine albedo network, as the plastic model has) and the small configuration. Prints
+photo-affine albedo network and its joint reading head, as the plastic model has) and the
+small configuration. Prints
 JSON.
 
     python benchmarks/estimate_speed.py [--device cpu|cuda] [--repeats 10]
@@ -24,8 +25,10 @@ from train.networks import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig, SVBR
 def main(device, repeats):
     results = {}
     photo_affine = dataclasses.replace(COMPACT_CONFIG, albedo_network="photo-affine")
+    joint = dataclasses.replace(photo_affine, joint_reading=True)
     for name, config in (("paper", NetworkConfig()), ("compact", COMPACT_CONFIG),
                          ("compact, photo-affine albedo", photo_affine),
+                         ("compact, photo-affine albedo, joint reading", joint),
                          ("small", SMALL_CPU_CONFIG)):
         net = SVBRDFNet(config).to(device).eval()
         photo = torch.rand(1, 3, config.input_size, config.input_size, device=device)

@@ -72,11 +72,12 @@ def full_resolution_maps(net, linear_photo, max_side=MAX_SIDE, overlap=TILE_OVER
 
 def photo_affine_albedo_map(net, photo):
     """(1, 3, H, W): every pixel of the (H, W, 3) photo mapped by the photo-affine albedo
-    network's offset for the photo's network-size view (its centre square at S x S)."""
+    network's offset for the photo's network-size view (its centre square at S x S), through
+    the network's JointReading head when it has one."""
     device = next(net.parameters()).device
     image = torch.as_tensor(np.ascontiguousarray(photo.transpose(2, 0, 1)))[None].to(device)
     view = torch.as_tensor(network_view(photo, net.config.input_size))[None].to(device)
-    return net.albedo(image, view).cpu()
+    return net.photo_affine_albedo(image, view).cpu()
 
 
 def overview_photo(photo, input_size, multiple):

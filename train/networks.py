@@ -28,6 +28,12 @@ All three networks share the structure of their analysis sub-network: ``levels``
   offset is what the photo alone does not tell. The albedo keeps the photo's every detail,
   and with it what this model leaves out (the light's color, shading of relief, glints of a
   glossy relief).
+- ``JointReading`` (``joint_reading=True``, beside a photo-affine albedo network): a small
+  head that reads the homogeneous network's specular albedo and roughness and the albedo
+  network's reflection share together, with quantiles of the photo's values, and corrects all
+  five. The two networks read one ambiguity apart (a flat photo's reflection is an offset
+  that a lighter albedo explains as well); the head is fit after them, on the evaluation's
+  relit error (train.joint_reading), and starts as the identity (its last layer zero).
 
 Input: (B, 3, S, S) photos, linear RGB in [0, 1] (docs/conventions.md), S divisible by
 2^levels. Outputs follow the label conventions of docs/dataset-format.md.
@@ -67,6 +73,9 @@ class NetworkConfig:
     albedo_network: str = "map"
     """The albedo network: "map" (the paper's: a U-Net predicts every pixel) or
     "photo-affine" (the photo less a predicted grey offset, PhotoAffineAlbedoNet)."""
+    joint_reading: bool = False
+    """A JointReading head corrects the specular albedo, roughness and reflection share
+    (needs the photo-affine albedo network)."""
 
     def __post_init__(self):
         if self.albedo_network not in ALBEDO_NETWORKS:
@@ -75,6 +84,8 @@ class NetworkConfig:
         if self.homogeneous_pooling not in HOMOGENEOUS_POOLINGS:
             raise ValueError(f"homogeneous_pooling {self.homogeneous_pooling!r} is not one of "
                              f"{', '.join(HOMOGENEOUS_POOLINGS)}")
+        if self.joint_reading and self.albedo_network != "photo-affine":
+            raise ValueError("joint_reading needs the photo-affine albedo network")
         if self.input_size % 2 ** self.levels:
             raise ValueError(f"input_size {self.input_size} is not divisible by 2^levels "
                              f"({2 ** self.levels})")
@@ -200,6 +211,48 @@ def photo_affine_albedo(logit, image):
     return albedo * (0.5 / albedo.mean((1, 2, 3), keepdim=True))
 
 
+PHOTO_QUANTILES = (0.0, 0.01, 0.05, 0.25, 0.5, 0.75, 0.95, 0.99, 1.0)
+"""Quantiles of each channel's pixel values that JointReading reads (photo_statistics)."""
+JOINT_READING_HIDDEN = 64
+"""Hidden units of JointReading."""
+
+
+def photo_statistics(image):
+    """(B, 3 len(PHOTO_QUANTILES)): the quantiles PHOTO_QUANTILES of each channel's pixel
+    values of ``image`` (B, 3, S, S), over the photo's mean (so that they do not depend on its
+    exposure), quantile-major."""
+    quantiles = torch.tensor(PHOTO_QUANTILES, dtype=image.dtype, device=image.device)
+    values = torch.quantile(image.flatten(2), quantiles, dim=2)  # (Q, B, 3)
+    return values.permute(1, 0, 2).flatten(1) / image.mean((1, 2, 3))[:, None].clamp(min=1e-6)
+
+
+class JointReading(nn.Module):
+    """(log relative specular albedo (B, 3), log roughness (B, 1), reflection share logit
+    (B, 1), photo_statistics (B, 27)) -> the same three, corrected. An MLP of one hidden layer
+    reads them, each input standardized by the buffers ``mean`` and ``scale`` (set when the
+    head is fit), and adds its five outputs; its last layer starts at zero (the identity)."""
+
+    INPUTS = 5 + 3 * len(PHOTO_QUANTILES)
+
+    def __init__(self):
+        super().__init__()
+        self.register_buffer("mean", torch.zeros(self.INPUTS))
+        self.register_buffer("scale", torch.ones(self.INPUTS))
+        self.mlp = nn.Sequential(nn.Linear(self.INPUTS, JOINT_READING_HIDDEN),
+                                 nn.ReLU(inplace=True), nn.Linear(JOINT_READING_HIDDEN, 5))
+        nn.init.zeros_(self.mlp[2].weight)
+        nn.init.zeros_(self.mlp[2].bias)
+
+    def readings(self, log_specular, log_roughness, logit, statistics):
+        """The (B, INPUTS) inputs of the head, before standardizing."""
+        return torch.cat([log_specular, log_roughness, logit, statistics], 1)
+
+    def forward(self, log_specular, log_roughness, logit, statistics):
+        inputs = self.readings(log_specular, log_roughness, logit, statistics)
+        corrected = inputs[:, :5] + self.mlp((inputs - self.mean) / self.scale)
+        return corrected[:, :3], corrected[:, 3:4], corrected[:, 4:5]
+
+
 PARTS = {"homogeneous": ("log_specular", "log_roughness"), "albedo": ("albedo",),
          "normal": ("normal",)}
 """The three networks of SVBRDFNet (its attribute names) and the labels each predicts."""
@@ -219,6 +272,8 @@ class SVBRDFNet(nn.Module):
         self.albedo = (MapNet(config, functional.softplus) if config.albedo_network == "map"
                        else PhotoAffineAlbedoNet(config))
         self.normal = MapNet(config, torch.sigmoid)
+        if config.joint_reading:
+            self.joint = JointReading()
         self.to(memory_format=torch.channels_last)
 
     def forward(self, image, parts=tuple(PARTS)):
@@ -228,15 +283,38 @@ class SVBRDFNet(nn.Module):
         only their labels are returned (training one network alone)."""
         check_images(image, 3, self.config.input_size)
         outputs = {}
-        if "homogeneous" in parts:
-            homogeneous = self.homogeneous(image)  # (B, 4)
-            outputs["log_specular"], outputs["log_roughness"] = (homogeneous[:, :3],
-                                                                 homogeneous[:, 3:])
-        if "albedo" in parts:
-            outputs["albedo"] = self.albedo(image)
+        if self.config.joint_reading and ("homogeneous" in parts or "albedo" in parts):
+            log_specular, log_roughness, logit = self.joint_readings(image)
+            if "homogeneous" in parts:
+                outputs["log_specular"], outputs["log_roughness"] = log_specular, log_roughness
+            if "albedo" in parts:
+                outputs["albedo"] = photo_affine_albedo(logit, image)
+        else:
+            if "homogeneous" in parts:
+                homogeneous = self.homogeneous(image)  # (B, 4)
+                outputs["log_specular"], outputs["log_roughness"] = (homogeneous[:, :3],
+                                                                     homogeneous[:, 3:])
+            if "albedo" in parts:
+                outputs["albedo"] = self.albedo(image)
         if "normal" in parts:
             outputs["normal"] = decode_normal(self.normal(image))
         return outputs
+
+
+    def joint_readings(self, image):
+        """The JointReading head's corrected log relative specular albedo (B, 3), log
+        roughness (B, 1) and reflection share logit (B, 1) of ``image`` (B, 3, S, S)."""
+        homogeneous = self.homogeneous(image)
+        return self.joint(homogeneous[:, :3], homogeneous[:, 3:], self.albedo.affine(image),
+                          photo_statistics(image))
+
+    def photo_affine_albedo(self, image, reference):
+        """The photo-affine albedo (B, 3, H, W) of ``image`` (any size) with the reflection
+        share read from ``reference`` (B, 3, S, S), its network-size view; through the
+        JointReading head when the network has one."""
+        if not self.config.joint_reading:
+            return self.albedo(image, reference)
+        return photo_affine_albedo(self.joint_readings(reference)[2], image)
 
 
 def check_images(image, channels, size):

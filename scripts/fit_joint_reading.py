@@ -1,0 +1,61 @@
+"""Fit the JointReading head of a photo-affine model file and write the model with it
+(train.joint_reading; models/README.md, "The joint reading").
+
+    .venv/bin/python scripts/fit_joint_reading.py MODEL.safetensors OUT.safetensors \
+        --maps MAPS --probes PROBES_TRAIN --work WORK
+
+The networks of MODEL are kept as they are; a head MODEL already has is replaced. WORK keeps
+the prepared photos and relights (re-run with the same options: the fit starts from them) and
+fit.png, the loss and the relit error of the photos kept out of the fit. Prints a JSON line:
+that error with and without the head.
+"""
+
+import dataclasses
+import json
+
+import click
+import torch
+
+from render.common.errors import InputError
+from render.common.probes import find_probes, load_probe
+from render.torch_renderer.renderer import ProbeBank
+from train.joint_reading import FitConfig, fit
+from train.model_files import FORMAT, load_network, model_metadata, save_model
+
+
+@click.command()
+@click.argument("model", type=click.Path(exists=True, dir_okay=False))
+@click.argument("out", type=click.Path())
+@click.option("--maps", required=True, type=click.Path(exists=True, file_okay=False),
+              help="Folder of material folders the photos are rendered from.")
+@click.option("--probes", required=True, type=click.Path(exists=True, file_okay=False),
+              help="Training probes.")
+@click.option("--work", required=True, type=click.Path(), help="Folder for the prepared data.")
+@click.option("--photos", default=FitConfig.photos, show_default=True)
+@click.option("--relights", default=FitConfig.relights, show_default=True)
+@click.option("--steps", default=FitConfig.steps, show_default=True)
+@click.option("--seed", default=FitConfig.seed, show_default=True)
+def main(model, out, maps, probes, work, photos, relights, steps, seed):
+    torch.manual_seed(seed)
+    try:
+        metadata = model_metadata(model, FORMAT, "model")
+        net = load_network(model)
+        if net.config.albedo_network != "photo-affine":
+            raise InputError(model, "the joint reading needs a photo-affine albedo network")
+        net.config = dataclasses.replace(net.config, joint_reading=True)
+        bank = ProbeBank([load_probe(path).radiance for path in find_probes(probes)])
+        cfg = FitConfig(work=work, maps=maps, photos=photos, relights=relights, steps=steps,
+                        seed=seed)
+        report = fit(cfg, net, bank)
+        recipe = (f"{metadata.get('recipe', '')}; then scripts/fit_joint_reading.py --photos "
+                  f"{photos} --relights {relights} --steps {steps} --seed {seed}, maps {maps}")
+        save_model(net, out, {key: value for key, value in metadata.items()
+                              if key not in ("format", "network")}
+                   | {"recipe": recipe, "joint_reading_fit": json.dumps(report)})
+    except (InputError, ValueError) as error:
+        raise click.ClickException(str(error)) from None
+    print(json.dumps(report))
+
+
+if __name__ == "__main__":
+    main()

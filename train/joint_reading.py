@@ -1,0 +1,245 @@
+"""Fitting the JointReading head (train.networks) of a photo-affine SVBRDF-net.
+
+The homogeneous network reads the specular albedo and roughness, the photo-affine albedo
+network the reflection's share of the photo; on a flat glossy sample both read the same
+offset, which a lighter albedo explains as well as a stronger reflection. The head reads the
+five values together, with quantiles of the photo's values (train.networks.photo_statistics),
+and is fit, the networks frozen, on the evaluation's relit error (train.estimate_evaluation):
+
+1. **Photos.** ``photos`` labeled samples rendered from a folder of material maps under
+   training probes (train.map_samples.MapSampler, mixed specular pairs, 256 px), rounded to
+   8 bits after gamma 1/2.2 encoding as sa-evaluate's PNG photos are, then read by the
+   frozen networks: their five readings and the photo statistics. The photo and the truth's
+   maps are kept box filtered to RELIT_SIZE px.
+2. **Relights.** Each photo ``relights`` times under another probe of the bank at a random
+   rotation: the truth rendered by the torch renderer at RELIT_SIZE px, auto-exposed (its
+   scale kept) and clamped to [0, 1].
+3. **The estimate's render without rendering.** Under flat normals a sample's radiance is
+   uniform and does not change with the probe's rotation about +z: per probe, the diffuse
+   radiance of albedo 1 and the specular radiance of specular albedo 1 on a grid of Ward
+   alphas (ALPHA_GRID, interpolated in log alpha) give it. The estimate's relit image is its
+   photo-affine albedo times the first plus its specular albedo times the second, exposed
+   with the truth's scale: a step costs no render (a render of the network's normals would
+   cost about a second per minibatch on the project's CPU). The networks' normals are left
+   out of the fit (the plastic network's are nearly flat: its normal angle error is 1.05x
+   the flat baseline's); sa-evaluate judges the head with them.
+4. **Fit.** Adam (lr 1e-3, weight decay 1e-4) on the relit RMSE (the estimate's clamp leaks,
+   train.losses.RELIT_CLAMP_LEAK), minibatches of BATCH relights, ``steps`` steps. A tenth of
+   the photos (CHECK_SHARE) is kept out of the fit; their relit error, with and without the
+   head, is reported and drawn beside the loss (``WORK/fit.png``).
+
+Steps 1 and 2 are the slow part (about 0.1 s per photo on the project's 2-core CPU); their
+result is saved (``WORK/prepared.pt``, read back with torch's safe loader), so a fit cut off
+after them starts from it when run again with the same options.
+"""
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+from torch.nn import functional  # noqa: E402
+from tqdm import tqdm  # noqa: E402
+
+from render.common.atomic_files import atomic_path  # noqa: E402
+from render.common.color import REC709_LUMINANCE  # noqa: E402
+from render.common.exposure import DEFAULT_KEY  # noqa: E402
+from render.torch_renderer.renderer import render  # noqa: E402
+from train.losses import RELIT_CLAMP_LEAK, maps_at_size  # noqa: E402
+from train.map_samples import MapSampler  # noqa: E402
+from train.networks import JointReading, photo_affine_albedo, photo_statistics  # noqa: E402
+from train.photos import PHOTO_GAMMA  # noqa: E402
+
+RELIT_SIZE = 32
+"""Side (px) of the relit images the head is fit on."""
+ALPHA_GRID = torch.exp(torch.linspace(math.log(0.02), 0.0, 33))
+"""Ward alphas of the specular radiance tables (the model's range, evenly in log)."""
+BATCH = 256
+CHECK_SHARE = 0.1
+"""Share of the photos kept out of the fit to report it on."""
+PHOTO_BATCH = 32
+"""Photos rendered and read by the networks at once."""
+
+
+@dataclass(frozen=True)
+class FitConfig:
+    work: str
+    """Folder for prepared.pt and fit.png."""
+    maps: str
+    """Folder of material folders the photos are rendered from."""
+    photos: int = 9600
+    """Photos rendered (CHECK_SHARE of them kept out of the fit)."""
+    relights: int = 2
+    """Relights per photo, each under another training probe."""
+    steps: int = 10000
+    seed: int = 0
+
+
+def photo_round_trip(image):
+    """(B, 3, S, S) linear images in [0, 1] -> as read back from an 8-bit PNG encoded with
+    gamma 1 / PHOTO_GAMMA (sa-evaluate's photos)."""
+    encoded = torch.round(image.clamp(0.0, 1.0) ** (1.0 / PHOTO_GAMMA) * 255.0) / 255.0
+    return encoded ** PHOTO_GAMMA
+
+
+def prepare(cfg, net, bank):
+    """Steps 1 and 2 of the module docstring: a dict of tensors (readings (N, INPUTS),
+    photo (N, 3, s, s), relit_probe / exposure / relit (N R, ...), photo_of_relight (N R,))."""
+    sampler = MapSampler(cfg.maps, bank, range(len(bank)), net.config.input_size,
+                         2 * net.config.input_size, mix_specular=True)
+    rng = np.random.default_rng([cfg.seed, 1])
+    readings, photos, truths = [], [], []
+    for start in tqdm(range(0, cfg.photos, PHOTO_BATCH), desc="photos", unit="batch"):
+        batch = sampler.batch(rng, min(PHOTO_BATCH, cfg.photos - start))
+        image = photo_round_trip(batch["image"])
+        with torch.no_grad():
+            homogeneous = net.homogeneous(image)
+            logit = net.albedo.affine(image)
+            readings.append(net.joint.readings(homogeneous[:, :3], homogeneous[:, 3:], logit,
+                                               photo_statistics(image)))
+        photos.append(functional.interpolate(image, size=RELIT_SIZE, mode="area"))
+        truths.append(maps_at_size({name: batch[name] for name in
+                                    ("albedo", "normal", "log_specular", "log_roughness")},
+                                   RELIT_SIZE) | {"probe": torch.as_tensor(
+                                       [p["probe_index"] for p in batch["provenance"]])})
+    truth = {name: torch.cat([t[name] for t in truths]) for name in truths[0]}
+    relit_probe, exposure, relit, photo_of_relight = [], [], [], []
+    for _ in tqdm(range(cfg.relights), desc="relights"):
+        for start in range(0, cfg.photos, BATCH):
+            index = torch.arange(start, min(start + BATCH, cfg.photos))
+            other = torch.as_tensor(rng.integers(len(bank) - 1, size=len(index)))
+            probe = other + (other >= truth["probe"][index]).long()  # any probe but its own
+            rotation = torch.as_tensor(rng.uniform(0.0, 360.0, size=len(index)),
+                                       dtype=torch.float32)
+            with torch.no_grad():
+                hdr = render(truth["albedo"][index], truth["normal"][index],
+                             truth["log_specular"][index].exp(),
+                             truth["log_roughness"][index, 0].exp().clamp(0.02, 1.0),
+                             bank, probe, rotation)
+            weights = hdr.new_tensor(REC709_LUMINANCE)[:, None, None]
+            scale = DEFAULT_KEY / (hdr * weights).sum(1).mean((1, 2))  # as expose meters
+            relit_probe.append(probe)
+            exposure.append(scale)
+            relit.append((hdr * scale[:, None, None, None]).clamp(0.0, 1.0))
+            photo_of_relight.append(index)
+    return {"readings": torch.cat(readings), "photo": torch.cat(photos),
+            "relit_probe": torch.cat(relit_probe), "exposure": torch.cat(exposure),
+            "relit": torch.cat(relit), "photo_of_relight": torch.cat(photo_of_relight)}
+
+
+def flat_radiance_tables(bank):
+    """(diffuse (P, 3), specular (P, len(ALPHA_GRID), 3)): per probe of ``bank``, the
+    radiance of a flat sample of albedo 1 (no specular) and of specular albedo 1 (no diffuse)
+    at each alpha of ALPHA_GRID, seen from +z."""
+    count, side = len(bank), 4
+    flat = torch.zeros(count, 3, side, side)
+    flat[:, 2] = 1.0
+    index = torch.arange(count)
+    with torch.no_grad():
+        diffuse = render(torch.ones(count, 3, side, side), flat, torch.zeros(count, 3),
+                         torch.full((count,), 0.25), bank, index).mean((2, 3))
+        specular = torch.stack([render(torch.zeros(count, 3, side, side), flat,
+                                       torch.ones(count, 3), torch.full((count,), float(a)),
+                                       bank, index).mean((2, 3)) for a in ALPHA_GRID], 1)
+    return diffuse, specular
+
+
+def specular_at(tables, log_roughness):
+    """(B, 3): ``tables`` (B, len(ALPHA_GRID), 3) interpolated linearly in log alpha at
+    ``log_roughness`` (B,), clamped to the grid."""
+    grid = torch.log(ALPHA_GRID)
+    position = (log_roughness.clamp(grid[0], grid[-1]) - grid[0]) / (grid[1] - grid[0])
+    low = position.detach().floor().clamp(max=len(grid) - 2).long()
+    weight = (position - low)[:, None]
+    rows = torch.arange(len(position))
+    return tables[rows, low] * (1.0 - weight) + tables[rows, low + 1] * weight
+
+
+def relit_errors(head, prepared, tables, relights, leak=0.0):
+    """Relit RMSE (len(relights),) of the head's corrected readings for the given relight
+    rows of ``prepared``; ``head`` None: the networks' own readings."""
+    photo = prepared["photo_of_relight"][relights]
+    readings = prepared["readings"][photo]
+    if head is None:
+        log_specular, log_roughness, logit = readings[:, :3], readings[:, 3:4], readings[:, 4:5]
+    else:
+        log_specular, log_roughness, logit = head(readings[:, :3], readings[:, 3:4],
+                                                  readings[:, 4:5], readings[:, 5:])
+    albedo = photo_affine_albedo(logit, prepared["photo"][photo])
+    diffuse, specular = (table[prepared["relit_probe"][relights]] for table in tables)
+    radiance = albedo * diffuse[:, :, None, None] + (
+        log_specular.exp() * specular_at(specular, log_roughness[:, 0]))[:, :, None, None]
+    exposed = radiance * prepared["exposure"][relights][:, None, None, None]
+    clamped = exposed.clamp(0.0, 1.0)
+    estimate = clamped + leak * (exposed - clamped)
+    return torch.sqrt(((estimate - prepared["relit"][relights]) ** 2).mean((1, 2, 3)) + 1e-12)
+
+
+def fit(cfg, net, bank):
+    """Fit ``net.joint`` (a JointReading, replaced by a fresh one) as the module docstring
+    says; returns a report dict (relit error of the check photos with and without it)."""
+    work = Path(cfg.work)
+    work.mkdir(parents=True, exist_ok=True)
+    prepared_path = work / "prepared.pt"
+    options = {"maps": cfg.maps, "photos": cfg.photos, "relights": cfg.relights,
+               "seed": cfg.seed, "model": getattr(net, "source", None), "probes": len(bank)}
+    """What the prepared data depends on."""
+    prepared = None
+    if prepared_path.is_file():
+        saved = torch.load(prepared_path, weights_only=True)
+        if saved["options"] == options:
+            prepared = saved["data"]
+    net.joint = JointReading()
+    if prepared is None:
+        prepared = prepare(cfg, net, bank)
+        with atomic_path(prepared_path) as tmp:
+            torch.save({"options": options, "data": prepared}, tmp)
+    head = net.joint
+    check_count = max(1, round(CHECK_SHARE * cfg.photos))
+    is_check = prepared["photo_of_relight"] >= cfg.photos - check_count
+    train_rows, check_rows = torch.nonzero(~is_check)[:, 0], torch.nonzero(is_check)[:, 0]
+    fitted = prepared["readings"][: cfg.photos - check_count]
+    head.mean.copy_(fitted.mean(0))
+    head.scale.copy_(fitted.std(0) + 1e-3)
+    tables = flat_radiance_tables(bank)
+    with torch.no_grad():
+        before = relit_errors(None, prepared, tables, check_rows).mean().item()
+    optimizer = torch.optim.Adam(head.mlp.parameters(), lr=1e-3, weight_decay=1e-4)
+    rng = np.random.default_rng([cfg.seed, 2])
+    losses, checks = [], []
+    for step in tqdm(range(1, cfg.steps + 1), desc="fit", unit="step"):
+        rows = train_rows[torch.as_tensor(rng.integers(len(train_rows), size=BATCH))]
+        loss = relit_errors(head, prepared, tables, rows, leak=RELIT_CLAMP_LEAK).mean()
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+        losses.append(loss.item())
+        if step % 500 == 0 or step == cfg.steps:
+            with torch.no_grad():
+                checks.append((step, relit_errors(head, prepared, tables,
+                                                  check_rows).mean().item()))
+    _draw(work / "fit.png", losses, checks, before)
+    return {"check_photos": check_count, "check_relit_before": before,
+            "check_relit_after": checks[-1][1], "check_ratio": checks[-1][1] / before}
+
+
+def _draw(path, losses, checks, before):
+    figure, axis = plt.subplots(figsize=(7, 4))
+    window = min(100, len(losses))
+    smooth = np.convolve(losses, np.ones(window) / window, mode="valid")
+    axis.plot(np.arange(window, len(losses) + 1), smooth, label=f"fit loss (mean of {window} steps)")
+    axis.plot([c[0] for c in checks], [c[1] for c in checks], "o-",
+              label="check photos, with the head")
+    axis.axhline(before, color="grey", linestyle="--", label="check photos, networks alone")
+    axis.set_xlabel("step")
+    axis.set_ylabel(f"relit RMSE ({RELIT_SIZE} px, flat normals)")
+    axis.legend()
+    figure.tight_layout()
+    with atomic_path(path) as tmp:
+        figure.savefig(tmp, format="png", dpi=100)
+    plt.close(figure)
