@@ -280,7 +280,9 @@ class SVBRDFNet(nn.Module):
         """``image`` (B, 3, S, S) -> dict of albedo (B, 3, S, S) relative diffuse albedo
         (positive, mean about 0.5); normal (B, 3, S, S) unit tangent-space normals; log_specular (B, 3);
         log_roughness (B, 1). Only the networks named in ``parts`` (keys of PARTS) run, and
-        only their labels are returned (training one network alone)."""
+        only their labels are returned (training one network alone). With a JointReading
+        head, the specular albedo, roughness and albedo are the head's corrected readings (both
+        homogeneous readings run when either part is asked for)."""
         check_images(image, 3, self.config.input_size)
         outputs = {}
         if self.config.joint_reading and ("homogeneous" in parts or "albedo" in parts):
@@ -299,7 +301,6 @@ class SVBRDFNet(nn.Module):
         if "normal" in parts:
             outputs["normal"] = decode_normal(self.normal(image))
         return outputs
-
 
     def joint_readings(self, image):
         """The JointReading head's corrected log relative specular albedo (B, 3), log
