@@ -47,10 +47,9 @@ from torch.nn import functional  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from render.common.atomic_files import atomic_path  # noqa: E402
-from render.common.color import REC709_LUMINANCE  # noqa: E402
-from render.common.exposure import DEFAULT_KEY  # noqa: E402
+from render.common.exposure import exposure_scales  # noqa: E402
 from render.torch_renderer.renderer import render  # noqa: E402
-from train.losses import RELIT_CLAMP_LEAK, maps_at_size  # noqa: E402
+from train.losses import RELIT_CLAMP_LEAK, clamped_relit_rmse, maps_at_size  # noqa: E402
 from train.map_samples import MapSampler  # noqa: E402
 from train.networks import JointReading, photo_affine_albedo, photo_statistics  # noqa: E402
 from train.photos import PHOTO_GAMMA  # noqa: E402
@@ -121,8 +120,7 @@ def prepare(cfg, net, bank):
                              truth["log_specular"][index].exp(),
                              truth["log_roughness"][index, 0].exp().clamp(0.02, 1.0),
                              bank, probe, rotation)
-            weights = hdr.new_tensor(REC709_LUMINANCE)[:, None, None]
-            scale = DEFAULT_KEY / (hdr * weights).sum(1).mean((1, 2))  # as expose meters
+            scale = exposure_scales(hdr)
             relit_probe.append(probe)
             exposure.append(scale)
             relit.append((hdr * scale[:, None, None, None]).clamp(0.0, 1.0))
@@ -175,9 +173,7 @@ def relit_errors(head, prepared, tables, relights, leak=0.0):
     radiance = albedo * diffuse[:, :, None, None] + (
         log_specular.exp() * specular_at(specular, log_roughness[:, 0]))[:, :, None, None]
     exposed = radiance * prepared["exposure"][relights][:, None, None, None]
-    clamped = exposed.clamp(0.0, 1.0)
-    estimate = clamped + leak * (exposed - clamped)
-    return torch.sqrt(((estimate - prepared["relit"][relights]) ** 2).mean((1, 2, 3)) + 1e-12)
+    return clamped_relit_rmse(exposed, prepared["relit"][relights], leak)
 
 
 def fit(cfg, net, bank):

@@ -100,10 +100,16 @@ def relit_loss(prediction, target, probes, probe_index, rotation_deg, size, form
     exposed = [expose(hdr, reference=truth_hdr, clamp=False) for hdr in (truth_hdr, estimate_hdr)]
     if form == "log":
         return torch.mean((torch.log1p(exposed[1]) - torch.log1p(exposed[0])) ** 2)
-    clamped = exposed[1].clamp(0.0, 1.0)
-    leaky = clamped + RELIT_CLAMP_LEAK * (exposed[1] - clamped)
-    squared = (leaky - exposed[0].clamp(0.0, 1.0)) ** 2
-    return torch.sqrt(squared.mean((1, 2, 3)) + 1e-12).mean()
+    return clamped_relit_rmse(exposed[1], exposed[0].clamp(0.0, 1.0), RELIT_CLAMP_LEAK).mean()
+
+
+def clamped_relit_rmse(estimate, truth, leak=0.0):
+    """(B,) per image, the RMSE between the exposed ``estimate`` (B, 3, H, W), clamped to
+    [0, 1] as the evaluation clamps it, and the clamped exposed ``truth``; the clamp leaks with
+    slope ``leak`` beyond [0, 1] (RELIT_CLAMP_LEAK when it is a loss)."""
+    clamped = estimate.clamp(0.0, 1.0)
+    leaky = clamped + leak * (estimate - clamped)
+    return torch.sqrt(((leaky - truth) ** 2).mean((1, 2, 3)) + 1e-12)
 
 
 MAX_RELATIVE_ALBEDO = 4.0

@@ -7,7 +7,8 @@ any factor gives the same exposed image, which is why relative albedos can be re
 
 The rule has two forms, side by side: ``expose_numpy`` exposes one (H, W, 3) numpy image (the
 dataset generator, photos) and also returns the scale it used; ``expose`` exposes a batch of
-(B, 3, H, W) torch tensors (the trainer's renders) on their device and in their dtype. The
+(B, 3, H, W) torch tensors (the trainer's renders) on their device and in their dtype, with
+``exposure_scales`` giving their scales. The
 torch form uses tensor methods only, so this module does not import torch.
 """
 
@@ -32,6 +33,19 @@ def expose_numpy(hdr, key=DEFAULT_KEY):
     return np.clip(hdr * scale, 0.0, 1.0).astype(np.float32), scale
 
 
+def exposure_scales(hdr, key=DEFAULT_KEY):
+    """(B,) factors that map the mean Rec. 709 luminance of each of the (B, 3, H, W) torch
+    images ``hdr`` to ``key`` (the torch form of exposure_scale). Raises ValueError where an
+    image is black or not finite."""
+    weights = hdr.new_tensor(REC709_LUMINANCE)
+    mean = (hdr * weights[:, None, None]).sum(1).mean((1, 2))
+    bad = ~(mean.isfinite() & (mean > 0))
+    if bad.any():
+        raise ValueError(f"cannot expose images {bad.nonzero().flatten().tolist()}: mean "
+                         f"luminance {mean[bad].tolist()}")
+    return key / mean
+
+
 def expose(hdr, key=DEFAULT_KEY, reference=None, clamp=True):
     """Auto-exposure and clamping of (B, 3, H, W) HDR torch tensors, as ``expose_numpy`` does
     to each image: each image scaled so its mean Rec. 709 luminance is ``key``, then clamped to
@@ -43,11 +57,5 @@ def expose(hdr, key=DEFAULT_KEY, reference=None, clamp=True):
     if hdr.ndim != 4 or hdr.shape[1] != 3 or metered.shape != hdr.shape:
         raise ValueError(f"expose takes (B, 3, H, W) images (and a reference of their shape), "
                          f"got {tuple(hdr.shape)} and {tuple(metered.shape)}")
-    weights = metered.new_tensor(REC709_LUMINANCE)
-    mean = (metered * weights[:, None, None]).sum(1).mean((1, 2))
-    bad = ~(mean.isfinite() & (mean > 0))
-    if bad.any():
-        raise ValueError(f"cannot expose images {bad.nonzero().flatten().tolist()}: mean "
-                         f"luminance {mean[bad].tolist()}")
-    exposed = hdr * (key / mean)[:, None, None, None]
+    exposed = hdr * exposure_scales(metered, key)[:, None, None, None]
     return exposed.clamp(0, 1) if clamp else exposed
