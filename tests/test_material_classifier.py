@@ -15,9 +15,9 @@ from render.torch_renderer.renderer import ProbeBank
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO
 from train.cli.sa_estimate import main as sa_estimate
 from train.map_samples import MapSampler
-from train.material_classifier import (ROUTES, MaterialClassifier, cheapest_route,
+from train.material_classifier import (FORMAT, ROUTES, MaterialClassifier, cheapest_route,
                                        load_classifier, save_classifier)
-from train.model_files import shipped_model_path
+from train.model_files import model_metadata, shipped_model_path
 from train.network_choice import CLASSIFIER_FILE, ClassRouter, network_choice
 
 
@@ -133,11 +133,17 @@ def test_the_classifier_training_script_resumes_and_exports(tmp_path):
     refused = subprocess.run(command + ["--steps", "2", "--export", str(tmp_path / "c.st")],
                              cwd=REPO, capture_output=True, text=True)
     assert refused.returncode != 0 and "--export needs --costs" in refused.stderr
+    unknown = subprocess.run(command + ["--steps", "2", "--route-weight", "stone=2"],
+                             cwd=REPO, capture_output=True, text=True)
+    assert unknown.returncode != 0 and "route 'stone' is not one of" in unknown.stderr
     more = subprocess.run(command + ["--steps", "3", "--costs", str(tmp_path / "costs.json"),
+                                     "--route-weight", "general=3",
                                      "--export", str(tmp_path / "c.safetensors")],
                           cwd=REPO, capture_output=True, text=True)
     assert more.returncode == 0, more.stderr
     state = torch.load(tmp_path / "run" / "checkpoint.pt", weights_only=True)
     assert state["step"] == 3 and [step for step, _ in state["history"]] == [1, 2, 3]
     assert load_classifier(tmp_path / "c.safetensors").costs.tolist() == costs
+    recipe = model_metadata(tmp_path / "c.safetensors", FORMAT, "classifier")["recipe"]
+    assert "'general': 3.0" in recipe and "'wood': 1.0" in recipe, recipe
     assert (tmp_path / "run" / "loss.png").stat().st_size > 0
