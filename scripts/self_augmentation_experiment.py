@@ -1,13 +1,14 @@
 """Self-augmentation against the baseline, measured with ``sa-evaluate`` (docs/training.md).
 
     .venv/bin/python scripts/self_augmentation_experiment.py --sets WOOD_SETS/ \
-        --probes TRAIN_PROBES/ --heldout HELDOUT_DATASET/ --heldout-probes TEST_PROBES/ \
-        --out EXP [--labeled 4] [--pool 20] [--seeds 0,1,2]
+        --probes TRAIN_PROBES/ --heldout HELDOUT_DATASET/ [--heldout ...] \
+        --heldout-probes TEST_PROBES/ --out EXP [--labeled 4] [--pool 20] [--seeds 0,1,2] \
+        [--pretrain-epochs 4] [--unlabeled-per-labeled 1]
 
 One class, wood, as the paper compares. The material sets in ``--sets`` (sorted by name) are
 split once: the first ``--pool`` may be labeled, the others are never labeled and give the
-unlabeled photos. The held-out dataset (sets and probes never used here) is what every
-network is judged on, against the naive baseline.
+unlabeled photos. The held-out datasets (render-dataset folders of sets and probes never used
+here) are what every network is judged on, against the naive baseline.
 
 1. Unlabeled photos: ``render-dataset`` (Mitsuba) renders the never-labeled sets under
    ``--unlabeled-probes`` of the training probes, 64 px samples of 128 px renders (the scale
@@ -18,8 +19,9 @@ network is judged on, against the naive baseline.
    - ``pretrained``: ``--pretrain-epochs`` labeled epochs (the paper starts self-augmentation
      from a network trained on labeled data);
    - ``baseline``: from ``pretrained``, ``--epochs`` more labeled epochs;
-   - ``self-augmented``: from ``pretrained``, the same labeled minibatches, each preceded by a
-     self-augmented one made from the unlabeled photos (rendered under the training probes).
+   - ``self-augmented``: from ``pretrained``, the same labeled minibatches, interleaved with
+     ``--unlabeled-per-labeled`` self-augmented ones per labeled one (1, the paper's: one
+     before each) made from the unlabeled photos (rendered under the training probes).
    Both arms start from the same weights with a fresh optimizer, see the same labeled
    minibatches (drawn from the seed and step) and differ only in the self-augmented ones.
 3. ``sa-evaluate`` of each run on ``--samples`` of the held-out dataset, relit under the
@@ -76,7 +78,7 @@ def unlabeled_photos(sets, probes, count, out):
 
 
 def train_runs(labeled_maps, unlabeled, probes, out, seed, pretrain_epochs, epochs,
-               epoch_samples):
+               epoch_samples, unlabeled_per_labeled):
     """The three runs of one seed (see the module docstring); returns {run: run folder}."""
     common = ["--labeled-maps", labeled_maps, "--render-size", 128, "--epoch-samples",
               epoch_samples, "--network", "small", "--probes", probes, "--seed", seed,
@@ -84,18 +86,22 @@ def train_runs(labeled_maps, unlabeled, probes, out, seed, pretrain_epochs, epoc
     folders = {run: out / run for run in RUNS}
     command("sa-train", *common, "--out", folders["pretrained"], "--labeled-epochs",
             pretrain_epochs, "--self-augmented-epochs", 0)
-    for run, extra in (("baseline", []), ("self-augmented", ["--unlabeled", unlabeled])):
+    for run, extra in (("baseline", []),
+                       ("self-augmented", ["--unlabeled", unlabeled, "--unlabeled-per-labeled",
+                                           unlabeled_per_labeled])):
         command("sa-train", *common, "--out", folders[run], "--init-from", folders["pretrained"],
                 "--labeled-epochs", 0, "--self-augmented-epochs", epochs, *extra)
     return folders
 
 
 def evaluate(run, heldout, heldout_probes, samples, out):
-    """sa-evaluate's mean errors of ``run`` (skipped when already evaluated)."""
+    """sa-evaluate's mean errors of ``run`` on the datasets ``heldout`` (skipped when
+    already evaluated)."""
     results = out / "results.json"
     if not results.exists():
+        datasets = [option for folder in heldout for option in ("--dataset", folder)]
         with open(out.with_suffix(".json"), "w") as stdout:
-            command("sa-evaluate", "--model", run, "--dataset", heldout, "--split", "all",
+            command("sa-evaluate", "--model", run, *datasets, "--split", "all",
                     "--probes", heldout_probes, "--samples", samples, "--out", out,
                     stdout=stdout)
     return json.loads(results.read_text())["mean"]
@@ -148,8 +154,9 @@ def plot_ratios(path, results):
               help="Wood material folders (make-materials --class wood).")
 @click.option("--probes", required=True, type=click.Path(exists=True, file_okay=False),
               help="Training probes.")
-@click.option("--heldout", required=True, type=click.Path(exists=True, file_okay=False),
-              help="render-dataset folder of held-out sets under held-out probes.")
+@click.option("--heldout", required=True, multiple=True,
+              type=click.Path(exists=True, file_okay=False),
+              help="render-dataset folder of held-out sets under held-out probes (repeatable).")
 @click.option("--heldout-probes", required=True, type=click.Path(exists=True, file_okay=False),
               help="Held-out probes, for relighting.")
 @click.option("--out", required=True, type=click.Path(), help="Experiment folder.")
@@ -158,19 +165,27 @@ def plot_ratios(path, results):
               help="The first POOL sets may be labeled; the others give unlabeled photos.")
 @click.option("--unlabeled-probes", default=10, show_default=True,
               help="Training probes the unlabeled photos are rendered under.")
+@click.option("--unlabeled-from", type=click.Path(exists=True, file_okay=False), default=None,
+              help="Another experiment folder whose unlabeled photos to use (made with the "
+                   "same --sets, --pool and --unlabeled-probes) instead of rendering them.")
 @click.option("--pretrain-epochs", default=4, show_default=True)
 @click.option("--epochs", default=3, show_default=True, help="Epochs of both arms.")
+@click.option("--unlabeled-per-labeled", default=1.0, show_default=True,
+              help="Self-augmented minibatches per labeled one in the self-augmented arm.")
 @click.option("--epoch-samples", default=1200, show_default=True)
 @click.option("--samples", default=48, show_default=True, help="Held-out samples evaluated.")
 @click.option("--seeds", default="0,1,2", show_default=True, help="Comma-separated seeds.")
 def main(sets, probes, heldout, heldout_probes, out, labeled, pool, unlabeled_probes,
-         pretrain_epochs, epochs, epoch_samples, samples, seeds):
+         unlabeled_from, pretrain_epochs, epochs, unlabeled_per_labeled, epoch_samples, samples, seeds):
     out, probes = Path(out), Path(probes)
     folders = sorted(p for p in Path(sets).iterdir() if p.is_dir())
     if len(folders) <= pool or labeled > pool:
         raise click.UsageError(f"{sets} holds {len(folders)} sets: need more than --pool "
                                f"{pool} and --labeled {labeled} at most --pool")
-    unlabeled = unlabeled_photos(folders[pool:], probes, unlabeled_probes, out)
+    if unlabeled_from:
+        unlabeled = Path(unlabeled_from) / "unlabeled"
+    else:
+        unlabeled = unlabeled_photos(folders[pool:], probes, unlabeled_probes, out)
     results = {}
     for seed in (int(s) for s in seeds.split(",")):
         chosen = np.random.default_rng(seed).choice(pool, labeled, replace=False)
@@ -178,7 +193,7 @@ def main(sets, probes, heldout, heldout_probes, out, labeled, pool, unlabeled_pr
         labeled_maps = link_folders([folders[i] for i in sorted(chosen)],
                                     seed_out / "labeled-maps")
         runs = train_runs(labeled_maps, unlabeled, probes, seed_out, seed, pretrain_epochs,
-                          epochs, epoch_samples)
+                          epochs, epoch_samples, unlabeled_per_labeled)
         results[seed] = {run: evaluate(folder, heldout, heldout_probes, samples,
                                        seed_out / f"eval-{run}")
                          for run, folder in runs.items()}

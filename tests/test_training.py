@@ -189,6 +189,12 @@ def test_baseline_and_self_augmentation_share_the_labeled_schedule():
         + [SELF_AUGMENTED] * 2 + [LABELED]
     ends = [i for i in range(augmented.total_steps) if augmented.ends_epoch(i)]
     assert ends == [2, 5, 14, 23]
+    half = Schedule(4, 1, 1, 0.5)  # one self-augmented minibatch before every other labeled
+    assert [(s.kind, s.batch) for s in map(half.step, range(4, half.total_steps))] == [
+        (SELF_AUGMENTED, 0), (LABELED, 0), (LABELED, 1), (SELF_AUGMENTED, 2), (LABELED, 2),
+        (LABELED, 3)]
+    with pytest.raises(ValueError, match="0 or more"):
+        Schedule(4, 1, 1, -1)
 
 
 def test_self_augmented_minibatch_is_a_valid_labeled_pair():

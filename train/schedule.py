@@ -1,9 +1,12 @@
 """The training schedule: which minibatch each optimizer step takes.
 
 Phase 1, ``labeled_epochs`` epochs of labeled minibatches only. Phase 2,
-``self_augmented_epochs`` epochs in which each labeled minibatch is preceded by
-``unlabeled_per_labeled`` self-augmented ones (the paper interleaves one of each); without
-unlabeled data (the baseline), phase 2 is the same labeled minibatches alone. An epoch is one
+``self_augmented_epochs`` epochs in which the labeled minibatches are interleaved with
+``unlabeled_per_labeled`` self-augmented ones per labeled one (the paper interleaves one of
+each). The ratio may be a fraction: labeled minibatch ``b`` of an epoch is preceded by
+``ceil((b + 1) r) - ceil(b r)`` self-augmented ones, so r = 2 puts two before every labeled
+minibatch and r = 0.5 one before every other (the first, the third, ...). Without unlabeled
+data (the baseline, r = 0), phase 2 is the same labeled minibatches alone. An epoch is one
 pass over the labeled training samples in a random order drawn from (seed, epoch), in
 ``steps_per_epoch`` full minibatches (the last partial one is dropped).
 
@@ -11,7 +14,10 @@ Every step's minibatch and random choices are a function of (seed, step), so a r
 from a checkpoint continues exactly as if it had not stopped.
 """
 
+import math
 from dataclasses import dataclass
+from fractions import Fraction
+from functools import cached_property
 
 import numpy as np
 
@@ -33,18 +39,29 @@ class Schedule:
     steps_per_epoch: int
     labeled_epochs: int
     self_augmented_epochs: int
-    unlabeled_per_labeled: int
-    """0 for the baseline."""
+    unlabeled_per_labeled: float
+    """Self-augmented minibatches per labeled one in phase 2 (a fraction allowed); 0 for the
+    baseline."""
 
-    @property
-    def cycle(self):
-        """Steps per labeled minibatch in phase 2."""
-        return 1 + self.unlabeled_per_labeled
+    def __post_init__(self):
+        if not self.unlabeled_per_labeled >= 0:
+            raise ValueError("unlabeled_per_labeled must be 0 or more, "
+                             f"not {self.unlabeled_per_labeled}")
+
+    @cached_property
+    def _phase_two_epoch(self):
+        """(kind, labeled minibatch index) of each step of a phase-2 epoch."""
+        ratio = Fraction(self.unlabeled_per_labeled).limit_denominator(1000)
+        steps = []
+        for batch in range(self.steps_per_epoch):
+            before = math.ceil((batch + 1) * ratio) - math.ceil(batch * ratio)
+            steps += [(SELF_AUGMENTED, batch)] * before + [(LABELED, batch)]
+        return tuple(steps)
 
     @property
     def total_steps(self):
-        return self.steps_per_epoch * (self.labeled_epochs
-                                       + self.self_augmented_epochs * self.cycle)
+        return (self.steps_per_epoch * self.labeled_epochs
+                + self.self_augmented_epochs * len(self._phase_two_epoch))
 
     @property
     def epochs(self):
@@ -55,11 +72,9 @@ class Schedule:
         phase_one = self.steps_per_epoch * self.labeled_epochs
         if index < phase_one:
             return Step(index // self.steps_per_epoch, LABELED, index % self.steps_per_epoch)
-        index -= phase_one
-        per_epoch = self.steps_per_epoch * self.cycle
-        within = index % per_epoch
-        kind = SELF_AUGMENTED if within % self.cycle < self.unlabeled_per_labeled else LABELED
-        return Step(self.labeled_epochs + index // per_epoch, kind, within // self.cycle)
+        epoch, within = divmod(index - phase_one, len(self._phase_two_epoch))
+        kind, batch = self._phase_two_epoch[within]
+        return Step(self.labeled_epochs + epoch, kind, batch)
 
     def ends_epoch(self, index):
         """True when step ``index`` is the last of its epoch."""

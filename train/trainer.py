@@ -121,8 +121,9 @@ class TrainConfig:
     """Epochs of labeled minibatches only (the paper: 10)."""
     self_augmented_epochs: int = 10
     """Epochs interleaving self-augmented and labeled minibatches (the paper: 10)."""
-    unlabeled_per_labeled: int = 1
-    """Self-augmented minibatches before each labeled one in those epochs."""
+    unlabeled_per_labeled: float = 1.0
+    """Self-augmented minibatches per labeled one in those epochs (the paper: 1; a fraction
+    such as 0.5 puts one before every other labeled minibatch, train/schedule.py)."""
     unlabeled_limit: int | None = None
     """Most unlabeled images in the color-matched subset."""
     albedo_loss: str = "linear"

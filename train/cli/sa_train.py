@@ -61,7 +61,10 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
 @click.option("--batch-size", default=16, show_default=True)
 @click.option("--labeled-epochs", default=10, show_default=True)
 @click.option("--self-augmented-epochs", default=10, show_default=True)
-@click.option("--unlabeled-per-labeled", default=1, show_default=True)
+@click.option("--unlabeled-per-labeled", type=click.FloatRange(min=0), default=1.0,
+              show_default=True,
+              help="Self-augmented minibatches per labeled one after the labeled epochs "
+                   "(a fraction allowed: 0.5 interleaves one with every other).")
 @click.option("--unlabeled-limit", type=int, default=None)
 @click.option("--albedo-loss", type=click.Choice(ALBEDO_LOSSES), default="linear",
               show_default=True, help="Squared error of the relative albedo (linear, the "
