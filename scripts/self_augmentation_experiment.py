@@ -176,7 +176,8 @@ def plot_ratios(path, results):
 @click.option("--samples", default=48, show_default=True, help="Held-out samples evaluated.")
 @click.option("--seeds", default="0,1,2", show_default=True, help="Comma-separated seeds.")
 def main(sets, probes, heldout, heldout_probes, out, labeled, pool, unlabeled_probes,
-         unlabeled_from, pretrain_epochs, epochs, unlabeled_per_labeled, epoch_samples, samples, seeds):
+         unlabeled_from, pretrain_epochs, epochs, unlabeled_per_labeled, epoch_samples,
+         samples, seeds):
     out, probes = Path(out), Path(probes)
     folders = sorted(p for p in Path(sets).iterdir() if p.is_dir())
     if len(folders) <= pool or labeled > pool:
