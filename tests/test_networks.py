@@ -1,14 +1,12 @@
 """SVBRDF-net: shapes, ranges, skip links, configuration checks, and the paper's optimizer."""
 
 import dataclasses
-import math
 
 import pytest
 import torch
 
 from train.networks import (SMALL_CPU_CONFIG, HomogeneousNet, MapNet, NetworkConfig,
-                            PhotoAffineAlbedoNet, SVBRDFNet, albedo_with_detail, decode_normal,
-                            photo_affine_albedo)
+                            PhotoAffineAlbedoNet, SVBRDFNet, decode_normal, photo_affine_albedo)
 from train.optimization import OptimizerConfig, inverse_decay, make_optimizer
 
 TINY = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32)
@@ -101,32 +99,6 @@ def test_photo_affine_albedo_takes_away_a_grey_reflection():
     output = net(torch.rand(2, 3, 32, 32))
     assert output.shape == (2, 3, 32, 32) and output.min() > 0
     assert torch.allclose(output.mean((1, 2, 3)), torch.full((2,), 0.5))
-
-
-def test_a_fresh_albedo_detail_network_keeps_the_photo_affine_albedo():
-    """The detail network starts as a gain of 1; a gain multiplies the albedo, which stays at
-    mean 0.5; a network without one has no detail part."""
-    torch.manual_seed(0)
-    config = dataclasses.replace(TINY, albedo_network="photo-affine", albedo_detail=True)
-    net = SVBRDFNet(config).eval()
-    assert net.parts == ("homogeneous", "albedo", "normal", "detail")
-    assert SVBRDFNet(TINY).parts == ("homogeneous", "albedo", "normal")
-    image = torch.rand(2, 3, 32, 32)
-    with torch.no_grad():
-        assert torch.allclose(net(image, parts=("detail",))["albedo"], net.albedo(image),
-                              atol=1e-6)
-        torch.nn.init.normal_(net.detail.output.weight, std=0.1)
-        gain = torch.exp(net.detail(image))
-        albedo = net(image)["albedo"]
-    expected = net.albedo(image) * gain
-    assert torch.allclose(albedo, expected * 0.5 / expected.mean((1, 2, 3), keepdim=True))
-    assert torch.allclose(albedo.mean((1, 2, 3)), torch.full((2,), 0.5))
-    halved = albedo_with_detail(torch.full((1, 3, 2, 2), 0.5),
-                                torch.tensor([0.0, 0.0, 0.0, math.log(0.5)]).view(1, 1, 2, 2)
-                                .expand(1, 3, 2, 2))
-    assert torch.allclose(halved[0, 0].flatten(), torch.tensor([4, 4, 4, 2]) / 7)
-    with pytest.raises(ValueError, match="albedo_detail needs the photo-affine albedo network"):
-        NetworkConfig(albedo_detail=True)
 
 
 def test_separate_networks_per_output_type():

@@ -497,51 +497,6 @@ def test_init_from_a_model_with_a_joint_reading_head_loads_its_networks_only(
             assert torch.equal(getattr(run.net, name).state_dict()[key], value), key
 
 
-def test_an_albedo_detail_network_trains_alone_beside_a_carried_joint_reading_head(
-        trained_run, dataset, tmp_path):
-    """--init-from a model with a joint reading head into a run with --albedo-detail and
-    --joint-reading: the detail network starts as a gain of 1 and is the only one that trains;
-    the head and the three networks keep the model's weights. A run that would train what the
-    head reads, or keep a head the model lacks, is refused."""
-    config = dataclasses.replace(load_network(trained_run).config,
-                                 albedo_network="photo-affine", joint_reading=True)
-    torch.manual_seed(0)
-    model = SVBRDFNet(config)
-    torch.nn.init.normal_(model.joint.mlp[2].weight, std=0.1)  # a head that corrects
-    save_model(model, tmp_path / "joint.safetensors", {"class": "plastic"})
-    start = load_network(tmp_path / "joint.safetensors")
-    detail = ["--init-from", str(tmp_path / "joint.safetensors"), "--albedo-network",
-              "photo-affine", "--albedo-detail", "--joint-reading"]
-    result = train(dataset, tmp_path / "detail", "--labeled-epochs", "1",
-                   "--self-augmented-epochs", "0", "--train-networks", "detail", *detail)
-    assert result.exit_code == 0, result.output
-    net = load_network(tmp_path / "detail")
-    assert net.config.albedo_detail and net.config.joint_reading
-    for name in ("homogeneous", "albedo", "normal", "joint"):
-        for key, value in getattr(start, name).state_dict().items():
-            assert torch.equal(getattr(net, name).state_dict()[key], value), (name, key)
-    assert net.detail.output.weight.abs().max() > 0  # it trained from its zero start
-    image = torch.rand(2, 3, 32, 32)
-    with torch.no_grad():
-        albedo, before = net(image)["albedo"], start(image)["albedo"]
-        gain = torch.exp(net.detail(image))
-    assert torch.allclose(albedo, before * gain * 0.5 / (before * gain).mean((1, 2, 3),
-                                                                            keepdim=True))
-    assert not torch.allclose(albedo, before, atol=1e-4)
-
-    what_it_reads = train(dataset, tmp_path / "reads", "--train-networks", "detail,albedo",
-                          *detail)
-    assert what_it_reads.exit_code != 0
-    assert "joint reading head reads the albedo network as it is" in what_it_reads.output
-    no_head = train(dataset, tmp_path / "no-head", "--train-networks", "detail", "--init-from",
-                    str(trained_run), "--albedo-network", "photo-affine", "--albedo-detail",
-                    "--joint-reading")
-    assert no_head.exit_code != 0 and "no joint reading head to carry over" in no_head.output
-    not_there = train(dataset, tmp_path / "not-there", "--train-networks", "detail")
-    assert not_there.exit_code != 0
-    assert "name some of homogeneous, albedo, normal" in not_there.output
-
-
 @pytest.mark.parametrize("form", RELIT_LOSS_FORMS)
 def test_relit_loss_is_zero_for_the_truth_and_pulls_specular_and_roughness_toward_it(form):
     probe_files = find_probes(BUNDLED_PROBES)

@@ -21,9 +21,7 @@ convolutional, so they can also run on other sizes; the maps here come from two 
 A photo-affine albedo network (train.networks.PhotoAffineAlbedoNet) needs none of this: its
 albedo is the photo less an offset, pixel by pixel, so the whole photo at output resolution
 loses the offset predicted for its network-size view (the centre square at S x S, as
-the estimate sees it); only the normals go through steps 1 to 3, and the albedo detail
-network's log gain where the network has one (combined as the normals are, without the
-normalization: detail - up(down(detail)) + up(overview)), which then multiplies that albedo.
+the estimate sees it); only the normals go through steps 1 to 3.
 
 Why not the tiles alone: a tile sees the texture magnified (output side / S times), a scale
 the networks were not trained on, and each tile's albedo comes out relative to its own content
@@ -41,7 +39,7 @@ import torch
 from torch.nn import functional
 
 from render.common.images import resize
-from train.networks import PhotoAffineAlbedoNet, albedo_with_detail, decode_normal
+from train.networks import PhotoAffineAlbedoNet, decode_normal
 from train.photos import network_view
 
 MAX_SIDE = 2048
@@ -68,8 +66,6 @@ def full_resolution_maps(net, linear_photo, max_side=MAX_SIDE, overlap=TILE_OVER
         maps = combine(overview, detail)
         if "albedo" not in maps:  # a photo-affine albedo network
             maps["albedo"] = photo_affine_albedo_map(net, photo)
-            if "log_gain" in maps:
-                maps["albedo"] = albedo_with_detail(maps["albedo"], maps["log_gain"])
     return tuple(np.ascontiguousarray(maps[name][0].permute(1, 2, 0).numpy())
                  for name in ("albedo", "normal"))
 
@@ -96,15 +92,12 @@ def overview_photo(photo, input_size, multiple):
 def map_networks(net, photos):
     """(B, H, W, 3) photos, sides multiples of 2^levels -> dict of the maps of the U-Net
     networks, each (B, 3, H, W) on the CPU: normal, and albedo unless the albedo network is
-    photo-affine (whose albedo photo_affine_albedo_map makes), log_gain where the network has
-    an albedo detail network."""
+    photo-affine (whose albedo photo_affine_albedo_map makes)."""
     device = next(net.parameters()).device
     image = torch.as_tensor(np.ascontiguousarray(photos.transpose(0, 3, 1, 2))).to(device)
     maps = {"normal": decode_normal(net.normal(image)).cpu()}
     if not isinstance(net.albedo, PhotoAffineAlbedoNet):
         maps["albedo"] = net.albedo(image).cpu()
-    if net.config.albedo_detail:
-        maps["log_gain"] = net.detail(image).cpu()
     return maps
 
 
@@ -150,9 +143,8 @@ def tiled_map_networks(net, photo, tile, overlap):
                 accumulated = sums.setdefault(name, torch.zeros((3,) + padded.shape[:2]))
                 accumulated[(slice(None),) + window] += weight * tiles[i]
     blended = {"normal": functional.normalize(sums["normal"], dim=0)}
-    for name in ("albedo", "log_gain"):
-        if name in sums:
-            blended[name] = sums[name] / total
+    if "albedo" in sums:
+        blended["albedo"] = sums["albedo"] / total
     return {name: value[None, :, :height, :width] for name, value in blended.items()}
 
 
@@ -174,6 +166,4 @@ def combine(overview, detail):
     combined = {"normal": functional.normalize(normal, dim=1)}
     if "albedo" in detail:
         combined["albedo"] = detail["albedo"] * up("albedo") / low("albedo").clamp(min=1e-4)
-    if "log_gain" in detail:
-        combined["log_gain"] = detail["log_gain"] - low("log_gain") + up("log_gain")
     return combined

@@ -34,12 +34,6 @@ All three networks share the structure of their analysis sub-network: ``levels``
   five. The two networks read one ambiguity apart (a flat photo's reflection is an offset
   that a lighter albedo explains as well); the head is fit after them, on the evaluation's
   relit error (train.joint_reading), and starts as the identity (its last layer zero).
-- The albedo detail network (``albedo_detail=True``, beside a photo-affine albedo network): a
-  MapNet whose output, unbounded, is a log gain per pixel and channel that multiplies the
-  photo-affine albedo (then scaled back to mean 0.5): it can take out of the albedo what the
-  photo holds beyond it (glints of a glossy relief, shading of its relief). Its last layer
-  starts at zero (a gain of 1: the photo-affine albedo as it was). It is the fourth part,
-  ``detail``, trained on its own after the others (``sa-train --train-networks detail``).
 
 Input: (B, 3, S, S) photos, linear RGB in [0, 1] (docs/conventions.md), S divisible by
 2^levels. Outputs follow the label conventions of docs/dataset-format.md.
@@ -82,9 +76,6 @@ class NetworkConfig:
     joint_reading: bool = False
     """A JointReading head corrects the specular albedo, roughness and reflection share
     (needs the photo-affine albedo network)."""
-    albedo_detail: bool = False
-    """An albedo detail network multiplies the photo-affine albedo by a gain per pixel (needs
-    the photo-affine albedo network)."""
 
     def __post_init__(self):
         if self.albedo_network not in ALBEDO_NETWORKS:
@@ -95,8 +86,6 @@ class NetworkConfig:
                              f"{', '.join(HOMOGENEOUS_POOLINGS)}")
         if self.joint_reading and self.albedo_network != "photo-affine":
             raise ValueError("joint_reading needs the photo-affine albedo network")
-        if self.albedo_detail and self.albedo_network != "photo-affine":
-            raise ValueError("albedo_detail needs the photo-affine albedo network")
         if self.input_size % 2 ** self.levels:
             raise ValueError(f"input_size {self.input_size} is not divisible by 2^levels "
                              f"({2 ** self.levels})")
@@ -168,9 +157,8 @@ class HomogeneousNet(nn.Module):
 
 class MapNet(nn.Module):
     """Photo -> a (B, 3, S, S) map through a U-Net style synthesis, ending in ``activation``:
-    ``torch.sigmoid`` for a map in [0, 1] (encoded normals), ``functional.softplus`` for an
-    unbounded positive one (relative albedo, which exceeds 1 for saturated colors) or
-    ``nn.Identity()`` for an unbounded one (the albedo detail network's log gain)."""
+    ``torch.sigmoid`` for a map in [0, 1] (encoded normals) or ``functional.softplus`` for an
+    unbounded positive one (relative albedo, which exceeds 1 for saturated colors)."""
 
     def __init__(self, config, activation):
         super().__init__()
@@ -223,22 +211,6 @@ def photo_affine_albedo(logit, image):
     return albedo * (0.5 / albedo.mean((1, 2, 3), keepdim=True))
 
 
-def albedo_with_detail(albedo, log_gain):
-    """The relative albedo (B, 3, H, W) times exp(``log_gain``) (B, 3, H, W), the albedo
-    detail network's output, scaled back to mean 0.5 over pixels and channels."""
-    albedo = albedo * torch.exp(log_gain)
-    return albedo * (0.5 / albedo.mean((1, 2, 3), keepdim=True))
-
-
-def albedo_detail_network(config):
-    """The albedo detail network: a MapNet with an unbounded output (a log gain), its last
-    layer zero (a gain of 1 everywhere)."""
-    net = MapNet(config, nn.Identity())
-    nn.init.zeros_(net.output.weight)
-    nn.init.zeros_(net.output.bias)
-    return net
-
-
 PHOTO_QUANTILES = (0.0, 0.01, 0.05, 0.25, 0.5, 0.75, 0.95, 0.99, 1.0)
 """Quantiles of each channel's pixel values that JointReading reads (photo_statistics)."""
 JOINT_READING_HIDDEN = 64
@@ -282,14 +254,12 @@ class JointReading(nn.Module):
 
 
 PARTS = {"homogeneous": ("log_specular", "log_roughness"), "albedo": ("albedo",),
-         "normal": ("normal",), "detail": ("albedo",)}
-"""The networks of SVBRDFNet (its attribute names) and the labels each predicts: the paper's
-three, and the albedo detail network where the configuration has one (its albedo is the
-albedo network's times its gain)."""
+         "normal": ("normal",)}
+"""The three networks of SVBRDFNet (its attribute names) and the labels each predicts."""
 
 
 class SVBRDFNet(nn.Module):
-    """The union of the networks; ``forward`` returns the label quantities.
+    """The union of the three networks; ``forward`` returns the label quantities.
 
     Its convolution weights are kept in the channels-last memory layout (``module.to`` and
     ``load_state_dict`` keep it), in which oneDNN convolves about twice as fast on a CPU
@@ -304,40 +274,30 @@ class SVBRDFNet(nn.Module):
         self.normal = MapNet(config, torch.sigmoid)
         if config.joint_reading:
             self.joint = JointReading()
-        if config.albedo_detail:
-            self.detail = albedo_detail_network(config)
-        self.parts = tuple(name for name in PARTS if name != "detail" or config.albedo_detail)
-        """The names of PARTS this network has."""
         self.to(memory_format=torch.channels_last)
 
-    def forward(self, image, parts=None):
+    def forward(self, image, parts=tuple(PARTS)):
         """``image`` (B, 3, S, S) -> dict of albedo (B, 3, S, S) relative diffuse albedo
         (positive, mean about 0.5); normal (B, 3, S, S) unit tangent-space normals; log_specular (B, 3);
-        log_roughness (B, 1). Only the networks named in ``parts`` (some of ``self.parts``;
-        None: all) run, and only their labels are returned (training one network alone); the
-        albedo runs the albedo network, and its detail network where there is one, when either
-        is asked for. With a JointReading head, the specular albedo, roughness and albedo are
-        the head's corrected readings (both homogeneous readings run when either part is asked
-        for)."""
+        log_roughness (B, 1). Only the networks named in ``parts`` (keys of PARTS) run, and
+        only their labels are returned (training one network alone). With a JointReading
+        head, the specular albedo, roughness and albedo are the head's corrected readings (both
+        homogeneous readings run when either part is asked for)."""
         check_images(image, 3, self.config.input_size)
-        parts = self.parts if parts is None else parts
-        albedo = "albedo" in parts or "detail" in parts
         outputs = {}
-        if self.config.joint_reading and ("homogeneous" in parts or albedo):
+        if self.config.joint_reading and ("homogeneous" in parts or "albedo" in parts):
             log_specular, log_roughness, logit = self.joint_readings(image)
             if "homogeneous" in parts:
                 outputs["log_specular"], outputs["log_roughness"] = log_specular, log_roughness
-            if albedo:
+            if "albedo" in parts:
                 outputs["albedo"] = photo_affine_albedo(logit, image)
         else:
             if "homogeneous" in parts:
                 homogeneous = self.homogeneous(image)  # (B, 4)
                 outputs["log_specular"], outputs["log_roughness"] = (homogeneous[:, :3],
                                                                      homogeneous[:, 3:])
-            if albedo:
+            if "albedo" in parts:
                 outputs["albedo"] = self.albedo(image)
-        if albedo and self.config.albedo_detail:
-            outputs["albedo"] = albedo_with_detail(outputs["albedo"], self.detail(image))
         if "normal" in parts:
             outputs["normal"] = decode_normal(self.normal(image))
         return outputs
@@ -352,8 +312,7 @@ class SVBRDFNet(nn.Module):
     def photo_affine_albedo(self, image, reference):
         """The photo-affine albedo (B, 3, H, W) of ``image`` (any size) with the reflection
         share read from ``reference`` (B, 3, S, S), its network-size view; through the
-        JointReading head when the network has one. Without the detail network's gain (which
-        train.full_resolution applies)."""
+        JointReading head when the network has one."""
         if not self.config.joint_reading:
             return self.albedo(image, reference)
         return photo_affine_albedo(self.joint_readings(reference)[2], image)

@@ -49,7 +49,7 @@ from train.labeled_dataset import LabeledDataset  # noqa: E402
 from train.losses import ALBEDO_LOSSES, RELIT_LOSS_FORMS, losses, relit_loss  # noqa: E402
 from train.map_samples import MapSampler  # noqa: E402
 from train.model_files import load_network  # noqa: E402
-from train.networks import NetworkConfig, SVBRDFNet  # noqa: E402
+from train.networks import PARTS, NetworkConfig, SVBRDFNet  # noqa: E402
 from train.optimization import OptimizerConfig, make_optimizer  # noqa: E402
 from train.schedule import SELF_AUGMENTED, Schedule, labeled_batch_indices  # noqa: E402
 from train.self_augmentation import random_lightings, self_augmented_batch  # noqa: E402
@@ -67,10 +67,9 @@ LABELED_COLORS_STREAM = 2 ** 32 - 1
 unlabeled subset; step ``index`` uses (seed, index), and no run reaches this many steps."""
 PROBE_TILTS_STREAM = 2 ** 32 - 2
 """Second seed word of the random stream of the tilted probe copies (TrainConfig.probe_tilts)."""
-FRESH_WHEN_CHANGED = {"homogeneous_pooling": "homogeneous", "albedo_network": "albedo",
-                      "albedo_detail": "detail"}
+FRESH_WHEN_CHANGED = {"homogeneous_pooling": "homogeneous", "albedo_network": "albedo"}
 """Network configuration fields in which an ``init_from`` model may differ from the run, and
-the network each shapes (which then starts fresh, where the run has it)."""
+the network each shapes (which then starts fresh)."""
 MAY_CHANGE = ("out", "device", "log_every", "checkpoint_every")
 """Options that do not change the trained weights: a resumed run may use other values
 (render.common.resume), so a moved run folder, or a CPU run continued on a GPU, resumes."""
@@ -94,9 +93,8 @@ class TrainConfig:
     """A model (shipped file, checkpoint or run folder) whose weights start the training, for
     fine-tuning; its network configuration must equal ``network`` but for the fields of
     FRESH_WHEN_CHANGED (Run._initialize_from). None: random weights."""
-    train_networks: tuple = ("homogeneous", "albedo", "normal")
-    """The networks trained (names of train.networks.PARTS that the network has: the albedo
-    detail network is trained only when named). The others keep their weights
+    train_networks: tuple = tuple(PARTS)
+    """The networks trained (names of train.networks.PARTS). The others keep their weights
     (from ``init_from``), stay in evaluation mode and are not run in labeled steps: the paper
     trains its three networks separately, and training the homogeneous network alone costs
     about a third of a whole step."""
@@ -213,20 +211,16 @@ class Run:
         self.schedule = Schedule(steps_per_epoch, cfg.labeled_epochs, cfg.self_augmented_epochs,
                                  cfg.unlabeled_per_labeled if self.unlabeled is not None else 0)
 
-        torch.manual_seed(cfg.seed)
-        self.net = SVBRDFNet(cfg.network).to(self.device)
-        unknown = set(cfg.train_networks) - set(self.net.parts)
+        unknown = set(cfg.train_networks) - set(PARTS)
         if unknown or not cfg.train_networks:
             raise ValueError(f"train_networks {sorted(cfg.train_networks)}: name some of "
-                             f"{', '.join(self.net.parts)}")
-        if cfg.network.joint_reading and cfg.init_from is None:
-            raise ValueError("a joint reading head is fit by scripts/fit_joint_reading.py, "
-                             "not trained: start from a model that has one (init_from)")
+                             f"{', '.join(PARTS)}")
+        torch.manual_seed(cfg.seed)
+        self.net = SVBRDFNet(cfg.network).to(self.device)
         if cfg.init_from is not None:
             self._initialize_from(cfg.init_from)
-        self.frozen_parts = tuple(name for name in self.net.parts
-                                  if name not in cfg.train_networks)
-        for name in self.frozen_parts + (("joint",) if cfg.network.joint_reading else ()):
+        self.frozen_parts = tuple(name for name in PARTS if name not in cfg.train_networks)
+        for name in self.frozen_parts:
             getattr(self.net, name).requires_grad_(False)
         if place.enabled:
             distributed.synchronize_batch_norm(self.net)  # before the optimizer holds its weights
@@ -242,26 +236,26 @@ class Run:
         must then be trained) and the others are loaded; a fresh photo-affine albedo network
         starts its analysis from the model's homogeneous analysis (both read a photo's
         homogeneous cues, and training on a CPU is short). A JointReading head of the model
-        is carried over, frozen, where this run's configuration has one (then the networks it
-        reads, the homogeneous and the albedo network, must not be trained); otherwise left out
-        (it reads the networks as they were: fit it again after training)."""
+        is left out (it reads the networks as they were: fit it again after training)."""
         start = load_network(model)
         config = self.cfg.network
         changed = [name for name in FRESH_WHEN_CHANGED
                    if getattr(start.config, name) != getattr(config, name)]
-        self._carry_joint_reading(model, start)
+        if start.config.joint_reading:
+            log.info("%s: its joint reading head is not carried over (fit one again after "
+                     "training: scripts/fit_joint_reading.py)", model)
         ignored = changed + ["joint_reading"]
         if start.config != dataclasses.replace(config, **{name: getattr(start.config, name)
                                                           for name in ignored}):
             raise InputError(model, f"its network {start.config} differs from this run's "
                                     f"{config}")
-        fresh = {FRESH_WHEN_CHANGED[name] for name in changed} & set(self.net.parts)
+        fresh = {FRESH_WHEN_CHANGED[name] for name in changed}
         untrained = sorted(fresh - set(self.cfg.train_networks))
         if untrained:
             raise InputError(model, f"it differs from this run in {', '.join(changed)}: the "
                                     f"{', '.join(untrained)} network starts fresh and must be "
                                     "among the trained networks")
-        for name in (name for name in self.net.parts if name not in fresh):
+        for name in (name for name in PARTS if name not in fresh):
             getattr(self.net, name).load_state_dict(getattr(start, name).state_dict())
         if "albedo" in fresh and config.albedo_network == "photo-affine":
             self.net.albedo.affine.analysis.load_state_dict(
@@ -269,24 +263,6 @@ class Run:
         if fresh:
             log.info("%s: loaded all but the %s network, which starts fresh", model,
                      ", ".join(sorted(fresh)))
-
-    def _carry_joint_reading(self, model, start):
-        """Load ``start``'s JointReading head where this run's network has one (see
-        _initialize_from)."""
-        if not self.cfg.network.joint_reading:
-            if start.config.joint_reading:
-                log.info("%s: its joint reading head is not carried over (fit one again after "
-                         "training: scripts/fit_joint_reading.py)", model)
-            return
-        if not start.config.joint_reading:
-            raise InputError(model, "it has no joint reading head to carry over (fit one with "
-                                    "scripts/fit_joint_reading.py)")
-        read = sorted({"homogeneous", "albedo"} & set(self.cfg.train_networks))
-        if read:
-            raise InputError(model, f"its joint reading head reads the {' and '.join(read)} "
-                                    "network as it is: train those without the head and fit "
-                                    "it again")
-        self.net.joint.load_state_dict(start.joint.state_dict())
 
     def _check_dataset(self):
         cfg = self.cfg

@@ -36,9 +36,9 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
               help="With --labeled-maps: labeled samples per epoch.")
 @click.option("--init-from", type=click.Path(), default=None,
               help="Start from this model's weights (fine-tuning); same network configuration.")
-@click.option("--train-networks", default="homogeneous,albedo,normal", show_default=True,
-              help=f"Comma-separated networks to train, of {', '.join(PARTS)} (detail: with "
-                   "--albedo-detail); the others keep their --init-from weights.")
+@click.option("--train-networks", default=",".join(PARTS), show_default=True,
+              help="Comma-separated networks to train; the others keep their --init-from "
+                   "weights.")
 @click.option("--out", required=True, type=click.Path(), help="Run folder.")
 @click.option("--probes", required=True, type=click.Path(),
               help="HDR probes for self-augmentation renders and relit evaluation.")
@@ -55,13 +55,6 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
 @click.option("--albedo-network", type=click.Choice(ALBEDO_NETWORKS), default=None,
               help="Override the preset's albedo network (map, the paper's U-Net; "
                    "photo-affine, the photo less a predicted grey offset).")
-@click.option("--albedo-detail/--no-albedo-detail", default=None,
-              help="Override the preset's: an albedo detail network multiplies the "
-                   "photo-affine albedo by a gain per pixel (train it with --train-networks "
-                   "detail).")
-@click.option("--joint-reading/--no-joint-reading", default=None,
-              help="Override the preset's: keep the --init-from model's joint reading head, "
-                   "frozen (the homogeneous and albedo networks then stay as they are).")
 @click.option("--learning-rate", default=0.002, show_default=True)
 @click.option("--lr-gamma", default=1e-4, show_default=True,
               help="Gamma of the inv policy: lr = learning_rate (1 + gamma step)^-1.")
@@ -101,14 +94,13 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
 @click.option("--log-every", default=50, show_default=True)
 @click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
 def main(network_name, input_size, width, levels, homogeneous_pooling, albedo_network,
-         albedo_detail, joint_reading, learning_rate, lr_gamma, train_networks, crop_scales, **options):
+         learning_rate, lr_gamma, train_networks, crop_scales, **options):
     """Train SVBRDF-net, with self-augmentation when unlabeled photos are given."""
     main_process = os.environ.get("RANK", "0") == "0"  # under torchrun, only rank 0 logs
     logging.basicConfig(level=logging.INFO if main_process else logging.WARNING,
                         format="%(asctime)s %(levelname)s %(message)s")
     overrides = {"input_size": input_size, "width": width, "levels": levels,
-                 "homogeneous_pooling": homogeneous_pooling, "albedo_network": albedo_network,
-                 "albedo_detail": albedo_detail, "joint_reading": joint_reading}
+                 "homogeneous_pooling": homogeneous_pooling, "albedo_network": albedo_network}
     try:
         network = dataclasses.replace(NETWORKS[network_name],
                                       **{k: v for k, v in overrides.items() if v is not None})
