@@ -185,6 +185,9 @@ def main(sets, probes, heldout, heldout_probes, out, labeled, pool, unlabeled_pr
                                f"{pool} and --labeled {labeled} at most --pool")
     if unlabeled_from:
         unlabeled = Path(unlabeled_from) / "unlabeled"
+        if not unlabeled.is_dir() or not any(unlabeled.iterdir()):
+            raise click.UsageError(f"{unlabeled_from}: no unlabeled photos in it (expected "
+                                   "the unlabeled/ folder of another experiment)")
     else:
         unlabeled = unlabeled_photos(folders[pool:], probes, unlabeled_probes, out)
     results = {}
