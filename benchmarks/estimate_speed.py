@@ -1,8 +1,8 @@
 """Benchmark of SVBRDF-net inference: milliseconds per photo (network forward pass only, batch
 of one, after warm-up) for the paper's, the compact (shipped models; with a U-Net or a
 photo-affine albedo network and its joint reading head, as the plastic model has) and the
-small configuration. Prints
-JSON.
+small configuration, and for the material classifier's probabilities of a 256 px photo (its 8
+views; alone and with a plastic-or-metal network, as the shipped file has). Prints JSON.
 
     python benchmarks/estimate_speed.py [--device cpu|cuda] [--repeats 10]
 """
@@ -16,7 +16,22 @@ import time
 import click
 import torch
 
+from train.material_classifier import MaterialClassifier
 from train.networks import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig, SVBRDFNet
+
+
+def milliseconds(run, photo, repeats, device):
+    """Mean milliseconds of ``run(photo)`` over ``repeats`` calls after one warm-up call."""
+    with torch.no_grad():
+        run(photo)
+        if device.startswith("cuda"):
+            torch.cuda.synchronize()
+        start = time.perf_counter()
+        for _ in range(repeats):
+            run(photo)
+        if device.startswith("cuda"):
+            torch.cuda.synchronize()
+    return round(1000 * (time.perf_counter() - start) / repeats, 2)
 
 
 @click.command()
@@ -32,17 +47,17 @@ def main(device, repeats):
                          ("small", SMALL_CPU_CONFIG)):
         net = SVBRDFNet(config).to(device).eval()
         photo = torch.rand(1, 3, config.input_size, config.input_size, device=device)
-        with torch.no_grad():
-            net(photo)  # warm-up
-            if device.startswith("cuda"):
-                torch.cuda.synchronize()
-            start = time.perf_counter()
-            for _ in range(repeats):
-                net(photo)
-            if device.startswith("cuda"):
-                torch.cuda.synchronize()
         results[name] = {"input": config.input_size,
-                         "ms_per_photo": round(1000 * (time.perf_counter() - start) / repeats, 2)}
+                         "ms_per_photo": milliseconds(net, photo, repeats, device)}
+    photo = torch.rand(1, 3, 256, 256, device=device)
+    for name, specialist in (("material classifier", False),
+                             ("material classifier with a plastic-or-metal network", True)):
+        classifier = MaterialClassifier()
+        if specialist:
+            classifier.attach_plastic_or_metal(MaterialClassifier())
+        classifier = classifier.to(device).eval()
+        results[name] = {"input": 256, "ms_per_photo": milliseconds(
+            classifier.probabilities, photo, repeats, device)}
     print(json.dumps({"device": device, "machine": f"{platform.machine()}, {os.cpu_count()} cores",
                       "torch_threads": torch.get_num_threads(), "networks": results}, indent=2))
 

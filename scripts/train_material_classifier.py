@@ -24,6 +24,15 @@ about a factor W, as a prior would.
         --maps plastic=MAPS/plastic --maps metal=MAPS/metal --maps general=REAL_SETS \
         --probes PROBES_TRAIN --run RUN --steps 1000 --costs costs.json \
         --export models/material-classifier.safetensors
+
+``--plastic-or-metal`` trains the plastic-or-metal network instead (train.material_classifier):
+photos of the plastic and metal routes only (``--maps`` names just those two), and ``--export``
+writes the classifier file ``--attach-to`` with this network attached (its first network and
+costs as they were):
+
+    .venv/bin/python scripts/train_material_classifier.py --plastic-or-metal \
+        --maps plastic=MAPS/plastic --maps metal=MAPS/metal --probes PROBES_TRAIN --run RUN_PM \
+        --steps 2000 --attach-to CLASSIFIER --export models/material-classifier.safetensors
 """
 
 import json
@@ -40,28 +49,35 @@ from torch.nn import functional  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from render.common.atomic_files import atomic_path  # noqa: E402
+from render.common.errors import InputError  # noqa: E402
 from render.common.probes import find_probes, load_probe  # noqa: E402
 from render.torch_renderer.renderer import ProbeBank  # noqa: E402
 from train.map_samples import MapSampler  # noqa: E402
-from train.material_classifier import (ROUTES, MaterialClassifier, route_folders,  # noqa: E402
-                                       save_classifier)
+from train.material_classifier import (FORMAT, ROUTES, MaterialClassifier,  # noqa: E402
+                                       load_classifier, route_folders, save_classifier)
+from train.model_files import model_metadata  # noqa: E402
 
 PHOTO_SIZE = 256
 RENDER_SIZE = 512
 CROP_SCALES = (1, 2)
 
 
+PLASTIC_OR_METAL = ("plastic", "metal")
+"""The routes the plastic-or-metal network is trained on."""
+
+
 def samplers(folders, probes_folder):
+    """{route: MapSampler} of ``folders`` ({route: folder}), in the order of ROUTES."""
     bank = ProbeBank([load_probe(path).radiance for path in find_probes(probes_folder)])
-    return [MapSampler(folders[route], bank, range(len(bank)), PHOTO_SIZE, RENDER_SIZE,
-                       crop_scales=CROP_SCALES) for route in ROUTES]
+    return {route: MapSampler(folders[route], bank, range(len(bank)), PHOTO_SIZE, RENDER_SIZE,
+                              crop_scales=CROP_SCALES) for route in ROUTES if route in folders}
 
 
 def minibatch(route_samplers, rng, per_route):
-    """Photos (n, 3, S, S) and route indices (n,)."""
-    photos = [sampler.batch(rng, per_route)["image"] for sampler in route_samplers]
-    labels = torch.arange(len(ROUTES)).repeat_interleave(per_route)
-    return torch.cat(photos), labels
+    """Photos (n, 3, S, S) and their route indices in ROUTES (n,)."""
+    photos = [sampler.batch(rng, per_route)["image"] for sampler in route_samplers.values()]
+    labels = torch.tensor([ROUTES.index(route) for route in route_samplers])
+    return torch.cat(photos), labels.repeat_interleave(per_route)
 
 
 def route_weights(pairs):
@@ -112,16 +128,30 @@ def write_loss_curve(path, history):
 @click.option("--export", type=click.Path(), default=None, help="Classifier file to write.")
 @click.option("--costs", type=click.Path(exists=True, dir_okay=False), default=None,
               help="Cost matrix JSON of scripts/measure_route_costs.py (needed by --export).")
+@click.option("--plastic-or-metal", is_flag=True, help="Train the plastic-or-metal network "
+              "on the plastic and metal routes only.")
+@click.option("--attach-to", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="With --plastic-or-metal: the classifier file --export writes with this "
+              "network attached.")
 @click.option("--test", "tests", multiple=True, help="ROUTE=FOLDER of held-out sets.")
 @click.option("--test-probes", type=click.Path(), default=None, help="Held-out probes.")
 @click.option("--test-samples", default=60, show_default=True, help="Test photos per route.")
 def main(maps, probes, run_folder, steps, per_route, route_weight_pairs, learning_rate, seed,
-         checkpoint_every, export, costs, tests, test_probes, test_samples):
-    if export and not costs:
-        raise click.UsageError("--export needs --costs")
+         checkpoint_every, export, costs, plastic_or_metal, attach_to, tests, test_probes,
+         test_samples):
+    if export and not (attach_to if plastic_or_metal else costs):
+        raise click.UsageError("--export needs --attach-to" if plastic_or_metal
+                               else "--export needs --costs")
+    if attach_to and not plastic_or_metal:
+        raise click.UsageError("--attach-to is for --plastic-or-metal")
+    routes = PLASTIC_OR_METAL if plastic_or_metal else ROUTES
     try:
-        folders = route_folders(maps)
-        test_folders = route_folders(tests) if tests else None
+        attached = load_classifier(attach_to) if export and plastic_or_metal else None
+    except InputError as error:
+        raise click.ClickException(str(error)) from None
+    try:
+        folders = route_folders(maps, routes)
+        test_folders = route_folders(tests, routes) if tests else None
         weights = route_weights(route_weight_pairs)
     except ValueError as error:
         raise click.BadParameter(str(error)) from None
@@ -157,7 +187,17 @@ def main(maps, probes, run_folder, steps, per_route, route_weight_pairs, learnin
                             "history": history, "torch_rng": torch.get_rng_state()}, tmp)
     write_loss_curve(run / "loss.png", history)
     classifier.eval()
-    if export:
+    if attached is not None:
+        attached.attach_plastic_or_metal(classifier)
+        kept = model_metadata(attach_to, FORMAT, "classifier")
+        save_classifier(attached, export, attached.costs.tolist(), {
+            key: value for key, value in kept.items()
+            if key not in ("format", "network", "routes", "costs", "plastic_or_metal")} | {
+            "plastic_or_metal_recipe": f"scripts/train_material_classifier.py "
+                                       f"--plastic-or-metal, {steps} steps of {per_route} "
+                                       f"photos per route, lr {learning_rate}, seed {seed}",
+            "plastic_or_metal_trained_on": folders})
+    elif export:
         measured = json.loads(Path(costs).read_text())
         if tuple(measured["routes"]) != ROUTES:
             raise click.UsageError(f"{costs}: routes {measured['routes']}, expected {ROUTES}")
@@ -169,17 +209,19 @@ def main(maps, probes, run_folder, steps, per_route, route_weight_pairs, learnin
             "trained_on": folders})
     if test_folders:
         test_samplers = samplers(test_folders, test_probes)
-        confusion = np.zeros((len(ROUTES), len(ROUTES)), dtype=int)
+        confusion = np.zeros((len(test_samplers), len(ROUTES)), dtype=int)
         rng = np.random.default_rng([seed, 0, 1])  # test photos; training draws (seed, step)
-        for truth, sampler in enumerate(test_samplers):
+        for truth, sampler in enumerate(test_samplers.values()):
             for start_index in range(0, test_samples, 20):
                 count = min(20, test_samples - start_index)
                 chosen = classifier.probabilities(sampler.batch(rng, count)["image"]).argmax(1)
                 for answer in chosen.tolist():
                     confusion[truth, answer] += 1
-        click.echo(json.dumps({"routes": ROUTES, "confusion (rows: truth, columns: answer)":
-                               confusion.tolist(),
-                               "accuracy": float(np.trace(confusion) / confusion.sum())}))
+        right = sum(confusion[row, ROUTES.index(route)]
+                    for row, route in enumerate(test_samplers))
+        click.echo(json.dumps({"routes": ROUTES, "test_routes": list(test_samplers),
+                               "confusion (rows: test routes, columns: answer)":
+                               confusion.tolist(), "accuracy": float(right / confusion.sum())}))
 
 
 if __name__ == "__main__":

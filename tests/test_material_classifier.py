@@ -16,7 +16,8 @@ from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO
 from train.cli.sa_estimate import main as sa_estimate
 from train.map_samples import MapSampler
 from train.material_classifier import (FORMAT, ROUTES, MaterialClassifier, cheapest_route,
-                                       load_classifier, save_classifier)
+                                       load_classifier, save_classifier,
+                                       split_plastic_or_metal)
 from train.model_files import model_metadata, shipped_model_path
 from train.network_choice import CLASSIFIER_FILE, ClassRouter, network_choice
 
@@ -53,6 +54,37 @@ def test_a_saved_classifier_reads_back_with_its_answers(tmp_path):
     assert torch.allclose(again(photos), classifier(photos), atol=2e-2, rtol=1e-2)
     assert again.probabilities(photos).sum(1) == pytest.approx(torch.ones(2), abs=1e-5)
     assert again.costs.tolist() == costs
+
+
+def test_the_plastic_or_metal_network_splits_only_the_plastic_or_metal_probability():
+    probabilities = torch.tensor([[0.1, 0.2, 0.6, 0.1], [0.5, 0.0, 0.0, 0.5]])
+    specialist = torch.tensor([[0.3, 0.6, 0.2, 0.0], [0.0, 0.5, 0.5, 0.0]])
+    split = split_plastic_or_metal(probabilities, specialist)
+    # plastic : metal = 0.6 : 0.2 of the 0.8 the first network gives the two together
+    assert torch.allclose(split, torch.tensor([[0.1, 0.6, 0.2, 0.1], [0.5, 0.0, 0.0, 0.5]]))
+    classifier = sure_of("metal")
+    classifier.attach_plastic_or_metal(sure_of("plastic"))
+    answer = classifier.probabilities(torch.rand(1, 3, 128, 128))[0]
+    assert answer[ROUTES.index("plastic")] > 0.99 and answer.sum() == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="cannot hold one of its own"):
+        sure_of("wood").attach_plastic_or_metal(classifier)
+
+
+def test_a_classifier_with_a_plastic_or_metal_network_reads_back(tmp_path):
+    torch.manual_seed(0)
+    classifier = MaterialClassifier().eval()
+    classifier.attach_plastic_or_metal(sure_of("plastic"))
+    photos = torch.rand(2, 3, 128, 128)
+    costs = [[float(i != j) for j in range(len(ROUTES))] for i in range(len(ROUTES))]
+    save_classifier(classifier, tmp_path / "c.safetensors", costs, {"recipe": "test"})
+    again = load_classifier(tmp_path / "c.safetensors")
+    assert again.plastic_or_metal is not None
+    first = again._view_mean(photos)  # the first network's own probabilities
+    plastic, metal = ROUTES.index("plastic"), ROUTES.index("metal")
+    answer = again.probabilities(photos)
+    assert answer[:, plastic] == pytest.approx(first[:, plastic] + first[:, metal], abs=1e-3)
+    assert answer[:, metal].max() < 1e-3
+    assert torch.allclose(answer, classifier.probabilities(photos), atol=1e-2)
 
 
 def test_a_model_file_is_not_taken_for_a_classifier():
@@ -147,3 +179,43 @@ def test_the_classifier_training_script_resumes_and_exports(tmp_path):
     recipe = model_metadata(tmp_path / "c.safetensors", FORMAT, "classifier")["recipe"]
     assert "'general': 3.0" in recipe and "'wood': 1.0" in recipe, recipe
     assert (tmp_path / "run" / "loss.png").stat().st_size > 0
+
+
+def test_the_training_script_attaches_a_plastic_or_metal_network(tmp_path):
+    """--plastic-or-metal trains on the two routes only and exports the --attach-to file with
+    the network attached: the attached file's first network and costs unchanged."""
+    maps = []
+    for route, material in (("plastic", "polyhaven_fabric_pattern_07"),
+                            ("metal", "pbrone_bricks")):
+        (tmp_path / route).mkdir()
+        (tmp_path / route / material).symlink_to(BUNDLED_MATERIALS / material)
+        maps += ["--maps", f"{route}={tmp_path / route}"]
+    torch.manual_seed(0)
+    costs = [[float(i + j) for j in range(len(ROUTES))] for i in range(len(ROUTES))]
+    save_classifier(MaterialClassifier(), tmp_path / "first.safetensors", costs, {"recipe": "r"})
+    command = [sys.executable, str(REPO / "scripts" / "train_material_classifier.py"), *maps,
+               "--probes", str(BUNDLED_PROBES), "--run", str(tmp_path / "run"), "--per-route",
+               "1", "--steps", "1", "--plastic-or-metal"]
+    four = subprocess.run(command + ["--maps", f"wood={tmp_path / 'plastic'}"], cwd=REPO,
+                          capture_output=True, text=True)
+    assert four.returncode != 0 and "give one folder per route ['plastic', 'metal']" in four.stderr
+    unattached = subprocess.run(command + ["--export", str(tmp_path / "c.safetensors")],
+                                cwd=REPO, capture_output=True, text=True)
+    assert unattached.returncode != 0 and "--export needs --attach-to" in unattached.stderr
+    foreign = subprocess.run(command + ["--attach-to", str(shipped_model_path("wood")),
+                                        "--export", str(tmp_path / "c.safetensors")],
+                             cwd=REPO, capture_output=True, text=True)
+    assert foreign.returncode != 0 and "not an sa-svbrdf classifier" in foreign.stderr
+    assert not (tmp_path / "run").exists()  # refused before training
+    done = subprocess.run(command + ["--attach-to", str(tmp_path / "first.safetensors"),
+                                     "--export", str(tmp_path / "c.safetensors")],
+                          cwd=REPO, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    first, both = (load_classifier(tmp_path / name) for name in ("first.safetensors",
+                                                                  "c.safetensors"))
+    assert first.plastic_or_metal is None and both.plastic_or_metal is not None
+    assert both.costs.tolist() == costs
+    photos = torch.rand(1, 3, 128, 128)
+    assert torch.equal(both(photos), first(photos))
+    metadata = model_metadata(tmp_path / "c.safetensors", FORMAT, "classifier")
+    assert metadata["recipe"] == "r" and "--plastic-or-metal" in metadata["plastic_or_metal_recipe"]

@@ -16,6 +16,13 @@ cost (``cheapest_route``): ``costs[i][j]``, measured on validation data
 network j on photos of route i, and the expected cost of network j is the sum over i of
 p_i costs[i][j].
 
+The plastic-or-metal call decides most: the metal network relights a plastic ten times worse
+than the baseline. A classifier file may therefore hold a second network of the same structure,
+``plastic_or_metal``, trained on plastic and metal photos only, from many more sets of each
+(scripts/train_material_classifier.py --plastic-or-metal): its odds of plastic against metal
+split the probability the first network gives the two together, which leaves the
+probabilities of wood and general as they were.
+
 Structure: the SVBRDF-nets' analysis blocks (train.networks.Analysis) on the photo box
 filtered to ``CLASSIFIER_CONFIG.input_size`` and gamma 1/2.2 encoded, then the mean and the
 maximum of the last features over the image, and one linear layer to a logit per route.
@@ -54,6 +61,16 @@ class MaterialClassifier(nn.Module):
         self.config = config
         self.analysis = Analysis(config)
         self.head = nn.Linear(2 * config.channels()[-1], len(ROUTES))
+        self.plastic_or_metal = None
+        """Optional second MaterialClassifier whose plastic-to-metal odds ``probabilities``
+        uses (attach it with ``attach_plastic_or_metal``)."""
+
+    def attach_plastic_or_metal(self, classifier):
+        """Use ``classifier`` (a MaterialClassifier without a second network of its own) for
+        the plastic-or-metal call."""
+        if classifier.plastic_or_metal is not None:
+            raise ValueError("the plastic-or-metal network cannot hold one of its own")
+        self.plastic_or_metal = classifier
 
     def forward(self, photo):
         size = self.config.input_size
@@ -69,18 +86,39 @@ class MaterialClassifier(nn.Module):
     def probabilities(self, photo):
         """Probabilities of the routes, (B, len(ROUTES)), without gradients: the mean over the
         photo's 8 quarter turns and mirror images (each is a photo of the turned or mirrored
-        sample under the probe turned or mirrored alike, as likely as the photo itself)."""
+        sample under the probe turned or mirrored alike, as likely as the photo itself). With
+        a plastic-or-metal network, the probability of plastic or metal is split in the
+        proportion of its own two (also over the 8 views)."""
+        probabilities = self._view_mean(photo)
+        if self.plastic_or_metal is None:
+            return probabilities
+        return split_plastic_or_metal(probabilities,
+                                      self.plastic_or_metal._view_mean(photo))
+
+    def _view_mean(self, photo):
         with torch.no_grad():
             views = [torch.rot90(image, turns, (2, 3)) for image in (photo, photo.flip(3))
                      for turns in range(4)]
             return torch.stack([torch.softmax(self(view), dim=1) for view in views]).mean(0)
 
 
-def route_folders(pairs):
-    """{route: folder} of ``ROUTE=FOLDER`` strings, one for every route of ROUTES."""
+def split_plastic_or_metal(probabilities, specialist):
+    """``probabilities`` (B, len(ROUTES)) with the sum of plastic and metal redistributed in
+    the ratio of ``specialist``'s (B, len(ROUTES)) plastic and metal probabilities."""
+    plastic, metal = ROUTES.index("plastic"), ROUTES.index("metal")
+    both = probabilities[:, plastic] + probabilities[:, metal]
+    share = specialist[:, plastic] / (specialist[:, plastic] + specialist[:, metal]).clamp(
+        min=1e-12)
+    split = probabilities.clone()
+    split[:, plastic], split[:, metal] = both * share, both * (1.0 - share)
+    return split
+
+
+def route_folders(pairs, routes=ROUTES):
+    """{route: folder} of ``ROUTE=FOLDER`` strings, one for every route of ``routes``."""
     folders = dict(pair.split("=", 1) for pair in pairs)
-    if sorted(folders) != sorted(ROUTES):
-        raise ValueError(f"give one folder per route {list(ROUTES)}, got {sorted(folders)}")
+    if sorted(folders) != sorted(routes):
+        raise ValueError(f"give one folder per route {list(routes)}, got {sorted(folders)}")
     return folders
 
 
@@ -93,13 +131,14 @@ def cheapest_route(probabilities, costs):
 
 
 def save_classifier(classifier, path, costs, metadata):
-    """Write the classifier's weights (float16), its ``costs`` (len(ROUTES) x len(ROUTES)
-    nested lists) and ``metadata`` (str -> JSON-able) as a safetensors file, atomically,
-    readable by everyone."""
+    """Write the classifier's weights (float16; a plastic-or-metal network's under
+    ``plastic_or_metal.``), its ``costs`` (len(ROUTES) x len(ROUTES) nested lists) and
+    ``metadata`` (str -> JSON-able) as a safetensors file, atomically, readable by everyone."""
     if torch.as_tensor(costs).shape != (len(ROUTES), len(ROUTES)):
         raise ValueError(f"costs must be {len(ROUTES)} x {len(ROUTES)}")
-    save_weights_file(classifier, path, {"format": FORMAT, "routes": ROUTES, "costs": costs}
-                      | metadata)
+    save_weights_file(classifier, path, {"format": FORMAT, "routes": ROUTES, "costs": costs,
+                                         "plastic_or_metal": classifier.plastic_or_metal
+                                         is not None} | metadata)
 
 
 def load_classifier(path):
@@ -111,6 +150,7 @@ def load_classifier(path):
         routes = tuple(json.loads(metadata["routes"]))
         config = NetworkConfig(**json.loads(metadata["network"]))
         costs = torch.tensor(json.loads(metadata["costs"]), dtype=torch.float64)
+        plastic_or_metal = json.loads(metadata.get("plastic_or_metal", "false"))
     except (KeyError, TypeError, ValueError, RuntimeError) as error:
         raise InputError(path, f"classifier has no valid configuration ({error})") from None
     if routes != ROUTES:
@@ -119,6 +159,8 @@ def load_classifier(path):
         raise InputError(path, f"classifier costs are not a finite {len(ROUTES)} x "
                                f"{len(ROUTES)} matrix")
     classifier = MaterialClassifier(config)
+    if plastic_or_metal:
+        classifier.attach_plastic_or_metal(MaterialClassifier(config))
     load_weights_file(classifier, path)
     classifier.costs, classifier.source = costs, str(path)
     return classifier.eval()
