@@ -195,7 +195,9 @@ def main(maps, probes, run_folder, steps, per_route, route_weight_pairs, learnin
             if key not in ("format", "network", "routes", "costs", "plastic_or_metal")} | {
             "plastic_or_metal_recipe": f"scripts/train_material_classifier.py "
                                        f"--plastic-or-metal, {steps} steps of {per_route} "
-                                       f"photos per route, lr {learning_rate}, seed {seed}",
+                                       f"photos per route, route weights "
+                                       f"{dict(zip(ROUTES, weights.tolist()))}, "
+                                       f"lr {learning_rate}, seed {seed}",
             "plastic_or_metal_trained_on": folders})
     elif export:
         measured = json.loads(Path(costs).read_text())

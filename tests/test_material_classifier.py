@@ -230,6 +230,7 @@ def test_the_training_script_attaches_a_plastic_or_metal_network(tmp_path):
     assert foreign.returncode != 0 and "not an sa-svbrdf classifier" in foreign.stderr
     assert not (tmp_path / "run").exists()  # refused before training
     done = subprocess.run(command + ["--attach-to", str(tmp_path / "first.safetensors"),
+                                     "--route-weight", "metal=2",
                                      "--export", str(tmp_path / "c.safetensors")],
                           cwd=REPO, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
@@ -240,4 +241,6 @@ def test_the_training_script_attaches_a_plastic_or_metal_network(tmp_path):
     photos = torch.rand(1, 3, 128, 128)
     assert torch.equal(both(photos), first(photos))
     metadata = model_metadata(tmp_path / "c.safetensors", FORMAT, "classifier")
-    assert metadata["recipe"] == "r" and "--plastic-or-metal" in metadata["plastic_or_metal_recipe"]
+    assert metadata["recipe"] == "r"
+    assert "--plastic-or-metal" in metadata["plastic_or_metal_recipe"]
+    assert "'plastic': 1.0, 'metal': 2.0" in metadata["plastic_or_metal_recipe"]
