@@ -49,9 +49,8 @@ def main(model, out, maps, probes, work, photos, relights, steps, seed):
         report = fit(cfg, net, bank)
         recipe = (f"{metadata.get('recipe', '')}; then scripts/fit_joint_reading.py --photos "
                   f"{photos} --relights {relights} --steps {steps} --seed {seed}, maps {maps}")
-        save_model(net, out, {key: value for key, value in metadata.items()
-                              if key not in ("format", "network")}
-                   | {"recipe": recipe, "joint_reading_fit": json.dumps(report)})
+        save_model(net, out, metadata | {"recipe": recipe,
+                                         "joint_reading_fit": json.dumps(report)})
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
     print(json.dumps(report))

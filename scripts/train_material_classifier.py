@@ -190,9 +190,7 @@ def main(maps, probes, run_folder, steps, per_route, route_weight_pairs, learnin
     if attached is not None:
         attached.attach_plastic_or_metal(classifier)
         kept = model_metadata(attach_to, FORMAT, "classifier")
-        save_classifier(attached, export, attached.costs.tolist(), {
-            key: value for key, value in kept.items()
-            if key not in ("format", "network", "routes", "costs", "plastic_or_metal")} | {
+        save_classifier(attached, export, attached.costs.tolist(), kept | {
             "plastic_or_metal_recipe": f"scripts/train_material_classifier.py "
                                        f"--plastic-or-metal, {steps} steps of {per_route} "
                                        f"photos per route, route weights "

@@ -24,7 +24,8 @@ from train.estimate_evaluation import (ERRORS, NAIVE_ROUGHNESS, NAIVE_SPECULAR, 
                                        naive_estimate, relit_rmse, relit_under, sample_errors,
                                        summary)
 from train.map_samples import MapSampler
-from train.model_files import SHIPPED, load_network, save_model, shipped_model_path
+from train.model_files import (FORMAT as MODEL_FORMAT, SHIPPED, load_network, model_metadata,
+                               save_model, shipped_model_path)
 from train.networks import NetworkConfig, SVBRDFNet
 
 TINY = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32)
@@ -196,6 +197,19 @@ def test_a_model_file_round_trips_in_float16(tmp_path):
         before, after = net(image), loaded(image)
     for name in before:
         assert torch.allclose(before[name], after[name], atol=2e-2, rtol=1e-2), name
+
+
+def test_metadata_copied_from_another_file_keeps_the_new_files_format_and_network(tmp_path):
+    """A model written with the metadata of another file (as scripts/fit_joint_reading.py
+    writes its output) has its own format and network configuration, the rest copied."""
+    small = NetworkConfig(input_size=32, width=4, max_width=8, levels=3, hidden=16)
+    save_model(SVBRDFNet(small), tmp_path / "old.safetensors", {"class": "plastic"})
+    copied = model_metadata(tmp_path / "old.safetensors", MODEL_FORMAT, "model")
+    save_model(SVBRDFNet(TINY), tmp_path / "new.safetensors",
+               copied | {"format": "another format"})
+    metadata = model_metadata(tmp_path / "new.safetensors", MODEL_FORMAT, "model")
+    assert metadata["class"] == "plastic"
+    assert load_network(tmp_path / "new.safetensors").config == TINY
 
 
 @pytest.mark.parametrize("name", SHIPPED)

@@ -133,12 +133,14 @@ def cheapest_route(probabilities, costs):
 def save_classifier(classifier, path, costs, metadata):
     """Write the classifier's weights (float16; a plastic-or-metal network's under
     ``plastic_or_metal.``), its ``costs`` (len(ROUTES) x len(ROUTES) nested lists) and
-    ``metadata`` (str -> JSON-able) as a safetensors file, atomically, readable by everyone."""
+    ``metadata`` (str -> JSON-able) as a safetensors file, atomically, readable by everyone.
+    The keys this function writes (format, routes, costs, plastic_or_metal, network) are the
+    file's own, whatever ``metadata`` (perhaps copied from another file) holds under them."""
     if torch.as_tensor(costs).shape != (len(ROUTES), len(ROUTES)):
         raise ValueError(f"costs must be {len(ROUTES)} x {len(ROUTES)}")
-    save_weights_file(classifier, path, {"format": FORMAT, "routes": ROUTES, "costs": costs,
-                                         "plastic_or_metal": classifier.plastic_or_metal
-                                         is not None} | metadata)
+    save_weights_file(classifier, path, metadata | {
+        "format": FORMAT, "routes": ROUTES, "costs": costs,
+        "plastic_or_metal": classifier.plastic_or_metal is not None})
 
 
 def load_classifier(path):

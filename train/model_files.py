@@ -40,19 +40,20 @@ def shipped_model_path(name):
 
 def save_model(net, path, metadata):
     """Write ``net``'s weights (floats as float16) and ``metadata`` (str -> JSON-able) as a
-    shipped model file."""
-    save_weights_file(net, path, {"format": FORMAT} | metadata)
+    shipped model file; its ``format`` and ``network`` are the file's own, whatever
+    ``metadata`` (perhaps copied from another file) holds under those keys."""
+    save_weights_file(net, path, metadata | {"format": FORMAT})
 
 
 def save_weights_file(module, path, metadata):
-    """Write a module's weights (floats as float16), its ``config`` as ``network`` and
-    ``metadata`` (str -> JSON-able) as a safetensors file, atomically, readable by everyone
-    (safetensors creates it owner-only)."""
+    """Write a module's weights (floats as float16), ``metadata`` (str -> JSON-able) and its
+    ``config`` as ``network`` (in place of any ``network`` of ``metadata``) as a safetensors
+    file, atomically, readable by everyone (safetensors creates it owner-only)."""
     tensors = {name: (value.half() if value.is_floating_point() else value).contiguous().cpu()
                for name, value in module.state_dict().items()}
-    header = {"network": json.dumps(vars(module.config))}
-    header |= {key: value if isinstance(value, str) else json.dumps(value)
-               for key, value in metadata.items()}
+    header = {key: value if isinstance(value, str) else json.dumps(value)
+              for key, value in metadata.items()}
+    header["network"] = json.dumps(vars(module.config))
     with atomic_path(Path(path)) as tmp:
         save_file(tensors, str(tmp), metadata=header)
         tmp.chmod(0o644)
