@@ -25,8 +25,10 @@ CLASSES=${CLASSES:-wood plastic metal}
 for class in $CLASSES; do
     case $class in wood|plastic|metal) ;; *) echo "CLASSES: unknown class $class" >&2; exit 2;; esac
 done
-ALL=false
-[ "$(echo $CLASSES | tr ' ' '\n' | sort -u | tr '\n' ' ')" = "metal plastic wood " ] && ALL=true
+ALL=true  # all three classes named
+for class in wood plastic metal; do
+    [[ " $CLASSES " == *" $class "* ]] || ALL=false
+done
 PAIRS=("aristea_wreck_puresky brown_photostudio_02" "circus_arena dikhololo_night"
        "env-lab kiara_1_dawn" "modern_buildings_2 rainforest_trail")
 mkdir -p "$WORK/probes" "$WORK/eval"
