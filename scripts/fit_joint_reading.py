@@ -10,17 +10,14 @@ fit.png, the loss and the relit error of the photos kept out of the fit. Prints 
 that error with and without the head.
 """
 
-import dataclasses
 import json
 
 import click
 import torch
 
 from render.common.errors import InputError
-from render.common.probes import find_probes, load_probe
-from render.torch_renderer.renderer import ProbeBank
 from train.joint_reading import FitConfig, fit
-from train.model_files import FORMAT, load_network, model_metadata, save_model
+from train.model_files import fit_part_onto_model
 
 
 @click.command()
@@ -37,20 +34,13 @@ from train.model_files import FORMAT, load_network, model_metadata, save_model
 @click.option("--seed", default=FitConfig.seed, show_default=True)
 def main(model, out, maps, probes, work, photos, relights, steps, seed):
     torch.manual_seed(seed)
+    cfg = FitConfig(work=work, maps=maps, photos=photos, relights=relights, steps=steps,
+                    seed=seed)
+    command = (f"scripts/fit_joint_reading.py --photos {photos} --relights {relights} "
+               f"--steps {steps} --seed {seed}, maps {maps}")
     try:
-        metadata = model_metadata(model, FORMAT, "model")
-        net = load_network(model)
-        if net.config.albedo_network != "photo-affine":
-            raise InputError(model, "the joint reading needs a photo-affine albedo network")
-        net.config = dataclasses.replace(net.config, joint_reading=True)
-        bank = ProbeBank([load_probe(path).radiance for path in find_probes(probes)])
-        cfg = FitConfig(work=work, maps=maps, photos=photos, relights=relights, steps=steps,
-                        seed=seed)
-        report = fit(cfg, net, bank)
-        recipe = (f"{metadata.get('recipe', '')}; then scripts/fit_joint_reading.py --photos "
-                  f"{photos} --relights {relights} --steps {steps} --seed {seed}, maps {maps}")
-        save_model(net, out, metadata | {"recipe": recipe,
-                                         "joint_reading_fit": json.dumps(report)})
+        report = fit_part_onto_model(model, out, "joint_reading", probes,
+                                     lambda net, bank: fit(cfg, net, bank), command)
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
     print(json.dumps(report))

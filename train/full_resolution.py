@@ -21,7 +21,10 @@ convolutional, so they can also run on other sizes; the maps here come from two 
 A photo-affine albedo network (train.networks.PhotoAffineAlbedoNet) needs none of this: its
 albedo is the photo less an offset, pixel by pixel, so the whole photo at output resolution
 loses the offset predicted for its network-size view (the centre square at S x S, as
-the estimate sees it); only the normals go through steps 1 to 3.
+the estimate sees it); only the normals go through steps 1 to 3. Its AlbedoCorrection, where
+it has one, was fit at the network's scale: it reads the overview's photo-affine albedo, and
+its log gain, upsampled bilinearly, multiplies the full-resolution albedo (scaled to mean 0.5
+again). For a square photo of S x S pixels, both are the network-size estimate's albedo.
 
 Why not the tiles alone: a tile sees the texture magnified (output side / S times), a scale
 the networks were not trained on, and each tile's albedo comes out relative to its own content
@@ -39,7 +42,7 @@ import torch
 from torch.nn import functional
 
 from render.common.images import resize
-from train.networks import PhotoAffineAlbedoNet, decode_normal
+from train.networks import PhotoAffineAlbedoNet, apply_log_gain, decode_normal
 from train.photos import network_view
 
 MAX_SIDE = 2048
@@ -73,11 +76,23 @@ def full_resolution_maps(net, linear_photo, max_side=MAX_SIDE, overlap=TILE_OVER
 def photo_affine_albedo_map(net, photo):
     """(1, 3, H, W): every pixel of the (H, W, 3) photo mapped by the photo-affine albedo
     network's offset for the photo's network-size view (its centre square at S x S), through
-    the network's JointReading head when it has one."""
+    the network's JointReading head when it has one, then its AlbedoCorrection's gain read on
+    the overview (module docstring)."""
     device = next(net.parameters()).device
-    image = torch.as_tensor(np.ascontiguousarray(photo.transpose(2, 0, 1)))[None].to(device)
+
+    def tensor(array):
+        return torch.as_tensor(np.ascontiguousarray(array.transpose(2, 0, 1)))[None].to(device)
+
     view = torch.as_tensor(network_view(photo, net.config.input_size))[None].to(device)
-    return net.photo_affine_albedo(image, view).cpu()
+    albedo = net.photo_affine_albedo(tensor(photo), view)
+    if net.config.albedo_correction:
+        overview = net.photo_affine_albedo(
+            tensor(overview_photo(photo, net.config.input_size, 2 ** net.config.levels)), view)
+        log_gain = functional.interpolate(net.correction.log_gain(overview),
+                                          size=albedo.shape[2:], mode="bilinear",
+                                          align_corners=False)
+        albedo = apply_log_gain(albedo, log_gain)
+    return albedo.cpu()
 
 
 def overview_photo(photo, input_size, multiple):

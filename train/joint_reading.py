@@ -86,16 +86,23 @@ def photo_round_trip(image):
     return encoded ** PHOTO_GAMMA
 
 
+def photo_batches(maps, bank, size, count, rng):
+    """``count`` labeled samples rendered from the material folders of ``maps`` under the
+    probes of ``bank`` (MapSampler: ``size`` px crops of the maps resampled to twice that,
+    mixed specular pairs), drawn with ``rng`` in batches of PHOTO_BATCH: yields (batch,
+    image), ``image`` the batch's photos as sa-evaluate reads them (photo_round_trip)."""
+    sampler = MapSampler(maps, bank, range(len(bank)), size, 2 * size, mix_specular=True)
+    for start in tqdm(range(0, count, PHOTO_BATCH), desc="photos", unit="batch"):
+        batch = sampler.batch(rng, min(PHOTO_BATCH, count - start))
+        yield batch, photo_round_trip(batch["image"])
+
+
 def prepare(cfg, net, bank):
     """Steps 1 and 2 of the module docstring: a dict of tensors (readings (N, INPUTS),
     photo (N, 3, s, s), relit_probe / exposure / relit (N R, ...), photo_of_relight (N R,))."""
-    sampler = MapSampler(cfg.maps, bank, range(len(bank)), net.config.input_size,
-                         2 * net.config.input_size, mix_specular=True)
     rng = np.random.default_rng([cfg.seed, 1])
     readings, photos, truths = [], [], []
-    for start in tqdm(range(0, cfg.photos, PHOTO_BATCH), desc="photos", unit="batch"):
-        batch = sampler.batch(rng, min(PHOTO_BATCH, cfg.photos - start))
-        image = photo_round_trip(batch["image"])
+    for batch, image in photo_batches(cfg.maps, bank, net.config.input_size, cfg.photos, rng):
         with torch.no_grad():
             homogeneous = net.homogeneous(image)
             logit = net.albedo.affine(image)

@@ -11,6 +11,7 @@ The shipped models live in ``models/`` of the repository (models/README.md is th
 ``svbrdf-<name>.safetensors`` for each name of SHIPPED.
 """
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -19,6 +20,8 @@ from safetensors.torch import load_file, save_file
 
 from render.common.atomic_files import atomic_path
 from render.common.errors import InputError
+from render.common.probes import find_probes, load_probe
+from render.torch_renderer.renderer import ProbeBank
 from train.checkpoints import checkpoint_files, load_checkpoint, load_weights
 from train.networks import NetworkConfig, SVBRDFNet
 
@@ -119,3 +122,21 @@ def _shipped_network(path):
     net = SVBRDFNet(shipped_network_config(path))
     load_weights_file(net, path)
     return net
+
+
+def fit_part_onto_model(model, out, part, probes, fit, command):
+    """Fit a part that a photo-affine model takes after training (``part``, its NetworkConfig
+    flag: ``joint_reading`` or ``albedo_correction``) onto the model file ``model`` and write
+    the model with it to ``out``: ``fit(net, bank)`` (``bank``: the probes of the folder
+    ``probes``) fits the part in place and returns a report, kept in the file's metadata as
+    ``<part>_fit``; ``command`` (the script and its options) is added to the recipe. Returns
+    the report."""
+    metadata = model_metadata(model, FORMAT, "model")
+    net = load_network(model)
+    if net.config.albedo_network != "photo-affine":
+        raise InputError(model, f"{part} needs a photo-affine albedo network")
+    net.config = dataclasses.replace(net.config, **{part: True})
+    report = fit(net, ProbeBank([load_probe(path).radiance for path in find_probes(probes)]))
+    save_model(net, out, metadata | {"recipe": f"{metadata.get('recipe', '')}; then {command}",
+                                     f"{part}_fit": json.dumps(report)})
+    return report

@@ -34,6 +34,12 @@ All three networks share the structure of their analysis sub-network: ``levels``
   five. The two networks read one ambiguity apart (a flat photo's reflection is an offset
   that a lighter albedo explains as well); the head is fit after them, on the evaluation's
   relit error (train.joint_reading), and starts as the identity (its last layer zero).
+- ``AlbedoCorrection`` (``albedo_correction=True``, beside a photo-affine albedo network): a
+  small local network that multiplies the photo-affine albedo by a gain per pixel and channel,
+  read from the albedo's neighbourhood (about 33 px) and its mean features over the photo.
+  The photo-affine albedo keeps what the photo shows beside the albedo (shading of relief,
+  glints); the correction is fit after the other networks, on the albedo's error
+  (train.albedo_correction), and starts as the identity (its last layer zero).
 
 Input: (B, 3, S, S) photos, linear RGB in [0, 1] (docs/conventions.md), S divisible by
 2^levels. Outputs follow the label conventions of docs/dataset-format.md.
@@ -76,6 +82,9 @@ class NetworkConfig:
     joint_reading: bool = False
     """A JointReading head corrects the specular albedo, roughness and reflection share
     (needs the photo-affine albedo network)."""
+    albedo_correction: bool = False
+    """An AlbedoCorrection network refines the albedo locally (needs the photo-affine albedo
+    network)."""
 
     def __post_init__(self):
         if self.albedo_network not in ALBEDO_NETWORKS:
@@ -86,6 +95,8 @@ class NetworkConfig:
                              f"{', '.join(HOMOGENEOUS_POOLINGS)}")
         if self.joint_reading and self.albedo_network != "photo-affine":
             raise ValueError("joint_reading needs the photo-affine albedo network")
+        if self.albedo_correction and self.albedo_network != "photo-affine":
+            raise ValueError("albedo_correction needs the photo-affine albedo network")
         if self.input_size % 2 ** self.levels:
             raise ValueError(f"input_size {self.input_size} is not divisible by 2^levels "
                              f"({2 ** self.levels})")
@@ -253,6 +264,57 @@ class JointReading(nn.Module):
         return corrected[:, :3], corrected[:, 3:4], corrected[:, 4:5]
 
 
+ALBEDO_CORRECTION_WIDTH = 16
+"""Channels of AlbedoCorrection's convolutions."""
+ALBEDO_CORRECTION_DILATIONS = (1, 2, 4, 8)
+"""Dilations of AlbedoCorrection's residual 3x3 convolutions: with its first convolution, a
+neighbourhood of 33 x 33 px."""
+
+
+class AlbedoCorrection(nn.Module):
+    """Relative albedo (B, 3, H, W) -> the same, each pixel and channel multiplied by a gain.
+
+    The network reads the albedo scaled to mean 0.5 and its logarithm (log(a + 0.01)), through
+    a 3x3 convolution and residual dilated 3x3 convolutions (ALBEDO_CORRECTION_DILATIONS);
+    beside each pixel's features, their mean over the image (what kind of material the photo
+    shows); a 1x1 convolution mixes the two and another gives the log gain, clamped to
+    [-4, 4]. Its last layer starts at zero: a fresh correction is the identity. It is fit at
+    the network's input scale (train.albedo_correction): a full-resolution albedo takes the
+    gain read at that scale (train.full_resolution)."""
+
+    def __init__(self):
+        super().__init__()
+        width = ALBEDO_CORRECTION_WIDTH
+        self.first = nn.Conv2d(6, width, 3, padding=1)
+        self.residual = nn.ModuleList(nn.Conv2d(width, width, 3, padding=d, dilation=d)
+                                      for d in ALBEDO_CORRECTION_DILATIONS)
+        self.mix = nn.Conv2d(2 * width, width, 1)
+        self.log_gain_output = nn.Conv2d(width, 3, 1)
+        nn.init.zeros_(self.log_gain_output.weight)
+        nn.init.zeros_(self.log_gain_output.bias)
+
+    def log_gain(self, albedo):
+        """(B, 3, H, W): the natural log of the gain of each pixel and channel of ``albedo``."""
+        scaled = albedo * (0.5 / albedo.mean((1, 2, 3), keepdim=True).clamp(min=1e-4))
+        x = torch.relu(self.first(torch.cat([scaled, torch.log(scaled + 0.01)], 1)))
+        for convolution in self.residual:
+            x = x + torch.relu(convolution(x))
+        context = x.mean((2, 3), keepdim=True).expand_as(x)
+        x = torch.relu(self.mix(torch.cat([x, context], 1)))
+        return self.log_gain_output(x).clamp(-4.0, 4.0)
+
+    def forward(self, albedo):
+        """``albedo`` times its gain, scaled to mean 0.5 over pixels and channels (the labels'
+        convention)."""
+        return apply_log_gain(albedo, self.log_gain(albedo))
+
+
+def apply_log_gain(albedo, log_gain):
+    """``albedo`` (B, 3, H, W) times exp(``log_gain``) (the same shape), scaled to mean 0.5."""
+    corrected = albedo * torch.exp(log_gain)
+    return corrected * (0.5 / corrected.mean((1, 2, 3), keepdim=True).clamp(min=1e-6))
+
+
 PARTS = {"homogeneous": ("log_specular", "log_roughness"), "albedo": ("albedo",),
          "normal": ("normal",)}
 """The three networks of SVBRDFNet (its attribute names) and the labels each predicts."""
@@ -274,6 +336,8 @@ class SVBRDFNet(nn.Module):
         self.normal = MapNet(config, torch.sigmoid)
         if config.joint_reading:
             self.joint = JointReading()
+        if config.albedo_correction:
+            self.correction = AlbedoCorrection()
         self.to(memory_format=torch.channels_last)
 
     def forward(self, image, parts=tuple(PARTS)):
@@ -282,7 +346,8 @@ class SVBRDFNet(nn.Module):
         log_roughness (B, 1). Only the networks named in ``parts`` (keys of PARTS) run, and
         only their labels are returned (training one network alone). With a JointReading
         head, the specular albedo, roughness and albedo are the head's corrected readings (both
-        homogeneous readings run when either part is asked for)."""
+        homogeneous readings run when either part is asked for). With an AlbedoCorrection, the
+        albedo is its corrected one."""
         check_images(image, 3, self.config.input_size)
         outputs = {}
         if self.config.joint_reading and ("homogeneous" in parts or "albedo" in parts):
@@ -298,6 +363,8 @@ class SVBRDFNet(nn.Module):
                                                                      homogeneous[:, 3:])
             if "albedo" in parts:
                 outputs["albedo"] = self.albedo(image)
+        if "albedo" in outputs and self.config.albedo_correction:
+            outputs["albedo"] = self.correction(outputs["albedo"])
         if "normal" in parts:
             outputs["normal"] = decode_normal(self.normal(image))
         return outputs
@@ -312,7 +379,8 @@ class SVBRDFNet(nn.Module):
     def photo_affine_albedo(self, image, reference):
         """The photo-affine albedo (B, 3, H, W) of ``image`` (any size) with the reflection
         share read from ``reference`` (B, 3, S, S), its network-size view; through the
-        JointReading head when the network has one."""
+        JointReading head when the network has one. Without an AlbedoCorrection (which
+        train.full_resolution applies at the network's scale)."""
         if not self.config.joint_reading:
             return self.albedo(image, reference)
         return photo_affine_albedo(self.joint_readings(reference)[2], image)
