@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pytest
 import torch
+from safetensors.torch import load_file, save_file
 from torch.nn import functional
 
 from render.common.errors import InputError
@@ -186,3 +187,17 @@ def test_a_fit_onto_a_map_albedo_model_is_refused(tmp_path):
         fit_part_onto_model(tmp_path / "map.safetensors", tmp_path / "out.safetensors",
                             "albedo_correction", BUNDLED_PROBES, None, "")
     assert not (tmp_path / "out.safetensors").exists()
+
+
+def test_a_model_file_without_its_correction_weights_is_refused_by_name(tmp_path):
+    """A file whose configuration has a correction but whose weights lack it."""
+    torch.manual_seed(0)
+    plain = SVBRDFNet(dataclasses.replace(TINY_CORRECTED, albedo_correction=False))
+    save_model(plain, tmp_path / "m.safetensors", {})
+    metadata = model_metadata(tmp_path / "m.safetensors", FORMAT, "model")
+    metadata["network"] = json.dumps(vars(TINY_CORRECTED))
+    save_file(load_file(str(tmp_path / "m.safetensors")), str(tmp_path / "m.safetensors"),
+              metadata=metadata)
+    with pytest.raises(InputError, match=r"m.safetensors.*do not fit.*missing "
+                                         r"correction\.first\.weight, .* and 12 more"):
+        load_network(tmp_path / "m.safetensors")

@@ -65,9 +65,18 @@ def _first_line(error):
 
 
 def load_weights(net, state, path):
-    """Load the model weights of ``state`` into ``net``, with a clear error on a mismatch."""
+    """Load the model weights of ``state`` into ``net``, with a clear error on a mismatch
+    naming the first weights missing, unexpected or of another shape."""
     try:
-        net.load_state_dict(state["model"])
-    except RuntimeError as error:
+        result = net.load_state_dict(state["model"], strict=False)
+    except RuntimeError as error:  # a weight of another shape: torch names it on line 2
+        lines = [line.strip() for line in str(error).strip().splitlines()]
         raise InputError(path, f"weights do not fit this network architecture "
-                               f"({_first_line(error)})") from None
+                               f"({(lines[1:] or lines)[0][:200]})") from None
+    problems = [f"{what} {', '.join(names[:2])}" + (f" and {len(names) - 2} more"
+                                                    if len(names) > 2 else "")
+                for what, names in (("missing", result.missing_keys),
+                                    ("unexpected", result.unexpected_keys)) if names]
+    if problems:
+        raise InputError(path, f"weights do not fit this network architecture "
+                               f"({'; '.join(problems)})")
