@@ -17,8 +17,8 @@ from the albedo and its neighbourhood; it is fit after the other networks, which
    albedo RMSE, with and without the correction, is reported and drawn beside the loss
    (``WORK/fit.png``).
 
-Step 1 takes about 0.12 s per photo on the project's 2-core CPU and step 2 about 0.2 s per step;
-both save their state in WORK (``prepared.pt``, and ``fit.pt`` every CHECKPOINT_EVERY steps,
+Step 1 takes 0.12 to 0.19 s per photo on the project's 2-core CPU, step 2 about 0.23 s per
+step; both save their state in WORK (``prepared.pt``, and ``fit.pt`` every CHECKPOINT_EVERY steps,
 read back with torch's safe loader), so a fit cut off starts again where it stopped when run
 with the same options, and a finished fit run again with more ``steps`` goes on. Each step's
 minibatch is drawn from its own seed (``seed``, step) and the fresh correction's weights from
