@@ -1,9 +1,9 @@
 """Benchmark of SVBRDF-net inference: milliseconds per photo (network forward pass only, batch
 of one, after warm-up) for the paper's, the compact (shipped models; with a U-Net or a
-photo-affine albedo network, its joint reading head and its albedo correction, as the plastic
-model has) and the small configuration, and for the material classifier's probabilities of a
-256 px photo (its 8 views; alone and with a plastic-or-metal network, as the shipped file
-has). Prints JSON.
+photo-affine albedo network, its joint reading head and its albedo correction, then with view
+averaging too, as the plastic model has) and the small configuration, and for the material
+classifier's probabilities of a 256 px photo (its 8 views; alone and with a plastic-or-metal
+network, as the shipped file has). Prints JSON.
 
     python benchmarks/estimate_speed.py [--device cpu|cuda] [--repeats 10]
 """
@@ -43,11 +43,14 @@ def main(device, repeats):
     photo_affine = dataclasses.replace(COMPACT_CONFIG, albedo_network="photo-affine")
     joint = dataclasses.replace(photo_affine, joint_reading=True)
     corrected = dataclasses.replace(joint, albedo_correction=True)
+    averaged = dataclasses.replace(corrected, view_averaging=True)
     for name, config in (("paper", NetworkConfig()), ("compact", COMPACT_CONFIG),
                          ("compact, photo-affine albedo", photo_affine),
                          ("compact, photo-affine albedo, joint reading", joint),
                          ("compact, photo-affine albedo, joint reading, albedo correction",
                           corrected),
+                         ("compact, photo-affine albedo, joint reading, albedo correction, "
+                          "view averaging", averaged),
                          ("small", SMALL_CPU_CONFIG)):
         net = SVBRDFNet(config).to(device).eval()
         photo = torch.rand(1, 3, config.input_size, config.input_size, device=device)
