@@ -12,14 +12,14 @@ from the albedo and its neighbourhood; it is fit after the other networks, which
    JointReading head where the network has one), kept in float16 beside the truth's albedo.
 2. **Fit.** Adam on the albedo RMSE of each photo (before the correction's scaling to mean
    0.5: the truth's mean is about 0.5), minibatches of BATCH crops of CROP pixels (one crop
-   position per minibatch; the whole photo where it is smaller), ``steps`` steps, the learning rate halved at each step of
-   ``halvings``. A tenth of the photos (CHECK_SHARE) is kept out of the fit; their whole-photo
+   position per minibatch; the whole photo where it is smaller), ``steps`` steps, the
+   learning rate halved at each step of ``halvings``. A tenth of the photos (CHECK_SHARE) is kept out of the fit; their whole-photo
    albedo RMSE, with and without the correction, is reported and drawn beside the loss
    (``WORK/fit.png``).
 
 Step 1 takes 0.12 to 0.19 s per photo on the project's 2-core CPU, step 2 about 0.23 s per
-step; both save their state in WORK (``prepared.pt``, and ``fit.pt`` every CHECKPOINT_EVERY steps,
-read back with torch's safe loader), so a fit cut off starts again where it stopped when run
+step; both save their state in WORK (``prepared.pt``, and ``fit.pt`` every CHECKPOINT_EVERY
+steps; train.joint_reading.save_work, read back with torch's safe loader), so a fit cut off starts again where it stopped when run
 with the same options, and a finished fit run again with more ``steps`` goes on. Each step's
 minibatch is drawn from its own seed (``seed``, step) and the fresh correction's weights from
 ``seed``, so a resumed fit draws what an uncut one would.
@@ -28,17 +28,12 @@ minibatch is drawn from its own seed (``seed``, step) and the fresh correction's
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import torch
+from tqdm import tqdm
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import torch  # noqa: E402
-from tqdm import tqdm  # noqa: E402
-
-from render.common.atomic_files import atomic_path  # noqa: E402
-from train.joint_reading import photo_batches  # noqa: E402
-from train.networks import AlbedoCorrection  # noqa: E402
+from train.joint_reading import draw_fit, photo_batches, save_work, saved_work
+from train.networks import AlbedoCorrection
 
 BATCH = 16
 """Crops per minibatch."""
@@ -110,17 +105,17 @@ def fit(cfg, net, bank):
     options = {"maps": cfg.maps, "photos": cfg.photos, "seed": cfg.seed,
                "model": getattr(net, "source", None), "probes": len(bank)}
     """What the prepared data depends on."""
-    prepared = _saved(work / "prepared.pt", options)
+    prepared = saved_work(work / "prepared.pt", options)
     if prepared is None:
         prepared = prepare(cfg, net, bank)
-        _save(work / "prepared.pt", options, prepared)
+        save_work(work / "prepared.pt", options, prepared)
     fit_options = options | {key: value for key, value in asdict(cfg).items()
                              if key not in ("work", "steps")}
     with torch.random.fork_rng():
         torch.manual_seed(cfg.seed)
         net.correction = correction = AlbedoCorrection()
     optimizer = torch.optim.Adam(correction.parameters(), lr=cfg.learning_rate)
-    state = _saved(work / "fit.pt", fit_options) or {"step": 0, "losses": [], "checks": []}
+    state = saved_work(work / "fit.pt", fit_options) or {"step": 0, "losses": [], "checks": []}
     if state["step"] > cfg.steps:
         raise ValueError(f"{work / 'fit.pt'}: a fit of {state['step']} steps, more than the "
                          f"{cfg.steps} asked for")
@@ -150,40 +145,11 @@ def fit(cfg, net, bank):
         losses.append(loss.item())
         if step % CHECKPOINT_EVERY == 0 or step == cfg.steps:
             checks.append((step, check_errors(correction, prepared, check_rows)[0]))
-            _save(work / "fit.pt", fit_options, {
+            save_work(work / "fit.pt", fit_options, {
                 "step": step, "losses": losses, "checks": checks,
                 "correction": correction.state_dict(), "optimizer": optimizer.state_dict()})
-    _draw(work / "fit.png", losses, checks, before)
+    draw_fit(work / "fit.png", losses, checks, before, f"fit loss, {crop} px crops",
+             ("kept-out photos, corrected", "kept-out photos, uncorrected"),
+             "albedo RMSE (relative albedo)")
     return {"check_photos": check_count, "check_albedo_rmse_before": before,
             "check_albedo_rmse_after": checks[-1][1], "check_ratio": checks[-1][1] / before}
-
-
-def _saved(path, options):
-    """The data saved at ``path`` under the same ``options``, or None."""
-    if not path.is_file():
-        return None
-    saved = torch.load(path, weights_only=True)
-    return saved["data"] if saved["options"] == options else None
-
-
-def _save(path, options, data):
-    with atomic_path(path) as tmp:
-        torch.save({"options": options, "data": data}, tmp)
-
-
-def _draw(path, losses, checks, before):
-    figure, axis = plt.subplots(figsize=(7, 4))
-    window = min(100, len(losses))
-    smooth = np.convolve(losses, np.ones(window) / window, mode="valid")
-    axis.plot(np.arange(window, len(losses) + 1), smooth,
-              label=f"fit loss ({CROP} px crops, mean of {window} steps)")
-    axis.plot([c[0] for c in checks], [c[1] for c in checks], "o-",
-              label="kept-out photos, corrected")
-    axis.axhline(before, color="grey", linestyle="--", label="kept-out photos, uncorrected")
-    axis.set_xlabel("step")
-    axis.set_ylabel("albedo RMSE (relative albedo)")
-    axis.legend()
-    figure.tight_layout()
-    with atomic_path(path) as tmp:
-        figure.savefig(tmp, format="png", dpi=100)
-    plt.close(figure)

@@ -188,20 +188,14 @@ def fit(cfg, net, bank):
     says; returns a report dict (relit error of the check photos with and without it)."""
     work = Path(cfg.work)
     work.mkdir(parents=True, exist_ok=True)
-    prepared_path = work / "prepared.pt"
     options = {"maps": cfg.maps, "photos": cfg.photos, "relights": cfg.relights,
                "seed": cfg.seed, "model": getattr(net, "source", None), "probes": len(bank)}
     """What the prepared data depends on."""
-    prepared = None
-    if prepared_path.is_file():
-        saved = torch.load(prepared_path, weights_only=True)
-        if saved["options"] == options:
-            prepared = saved["data"]
+    prepared = saved_work(work / "prepared.pt", options)
     net.joint = JointReading()
     if prepared is None:
         prepared = prepare(cfg, net, bank)
-        with atomic_path(prepared_path) as tmp:
-            torch.save({"options": options, "data": prepared}, tmp)
+        save_work(work / "prepared.pt", options, prepared)
     head = net.joint
     check_count = max(1, round(CHECK_SHARE * cfg.photos))
     is_check = prepared["photo_of_relight"] >= cfg.photos - check_count
@@ -226,21 +220,42 @@ def fit(cfg, net, bank):
             with torch.no_grad():
                 checks.append((step, relit_errors(head, prepared, tables,
                                                   check_rows).mean().item()))
-    _draw(work / "fit.png", losses, checks, before)
+    draw_fit(work / "fit.png", losses, checks, before, "fit loss",
+             ("check photos, with the head", "check photos, networks alone"),
+             f"relit RMSE ({RELIT_SIZE} px, flat normals)")
     return {"check_photos": check_count, "check_relit_before": before,
             "check_relit_after": checks[-1][1], "check_ratio": checks[-1][1] / before}
 
 
-def _draw(path, losses, checks, before):
+def saved_work(path, options):
+    """The data a fit saved at ``path`` (save_work) under the same ``options``, or None; read
+    with torch's safe loader."""
+    if not path.is_file():
+        return None
+    saved = torch.load(path, weights_only=True)
+    return saved["data"] if saved["options"] == options else None
+
+
+def save_work(path, options, data):
+    """Save a fit's ``data`` (tensors and plain containers) at ``path`` with the ``options``
+    it depends on, atomically."""
+    with atomic_path(path) as tmp:
+        torch.save({"options": options, "data": data}, tmp)
+
+
+def draw_fit(path, losses, checks, before, loss_label, check_labels, ylabel):
+    """A fit's picture at ``path``: the loss per step (mean of 100 steps, ``loss_label``), the
+    kept-out photos' error at the ``checks`` ((step, error) pairs) and ``before`` the fit,
+    labelled ``check_labels`` (with, without)."""
     figure, axis = plt.subplots(figsize=(7, 4))
     window = min(100, len(losses))
     smooth = np.convolve(losses, np.ones(window) / window, mode="valid")
-    axis.plot(np.arange(window, len(losses) + 1), smooth, label=f"fit loss (mean of {window} steps)")
-    axis.plot([c[0] for c in checks], [c[1] for c in checks], "o-",
-              label="check photos, with the head")
-    axis.axhline(before, color="grey", linestyle="--", label="check photos, networks alone")
+    axis.plot(np.arange(window, len(losses) + 1), smooth,
+              label=f"{loss_label} (mean of {window} steps)")
+    axis.plot([c[0] for c in checks], [c[1] for c in checks], "o-", label=check_labels[0])
+    axis.axhline(before, color="grey", linestyle="--", label=check_labels[1])
     axis.set_xlabel("step")
-    axis.set_ylabel(f"relit RMSE ({RELIT_SIZE} px, flat normals)")
+    axis.set_ylabel(ylabel)
     axis.legend()
     figure.tight_layout()
     with atomic_path(path) as tmp:
