@@ -42,7 +42,8 @@ import torch
 from torch.nn import functional
 
 from render.common.images import resize
-from train.networks import PhotoAffineAlbedoNet, apply_log_gain, decode_normal
+from train.networks import (PhotoAffineAlbedoNet, apply_log_gain, decode_normal,
+                            photo_affine_albedo)
 from train.photos import network_view
 
 MAX_SIDE = 2048
@@ -84,10 +85,11 @@ def photo_affine_albedo_map(net, photo):
         return torch.as_tensor(np.ascontiguousarray(array.transpose(2, 0, 1)))[None].to(device)
 
     view = torch.as_tensor(network_view(photo, net.config.input_size))[None].to(device)
-    albedo = net.photo_affine_albedo(tensor(photo), view)
+    logit = net.reflection_logit(view)
+    albedo = photo_affine_albedo(logit, tensor(photo))
     if net.config.albedo_correction:
-        overview = net.photo_affine_albedo(
-            tensor(overview_photo(photo, net.config.input_size, 2 ** net.config.levels)), view)
+        overview = photo_affine_albedo(
+            logit, tensor(overview_photo(photo, net.config.input_size, 2 ** net.config.levels)))
         log_gain = functional.interpolate(net.correction.log_gain(overview),
                                           size=albedo.shape[2:], mode="bilinear",
                                           align_corners=False)

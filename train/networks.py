@@ -394,9 +394,14 @@ class SVBRDFNet(nn.Module):
         share read from ``reference`` (B, 3, S, S), its network-size view; through the
         JointReading head when the network has one. Without an AlbedoCorrection (which
         train.full_resolution applies at the network's scale)."""
+        return photo_affine_albedo(self.reflection_logit(reference), image)
+
+    def reflection_logit(self, reference):
+        """(B, 1): the logit of the reflection's share of the photo-affine albedo, read from
+        ``reference`` (B, 3, S, S); through the JointReading head when the network has one."""
         if not self.config.joint_reading:
-            return self.albedo(image, reference)
-        return photo_affine_albedo(self.joint_readings(reference)[2], image)
+            return self.albedo.affine(reference)
+        return self.joint_readings(reference)[2]
 
 
 def dihedral_views(image):
