@@ -14,14 +14,21 @@
 # estimate under 3 other held-out probes. (Until 2026-12 the test had 10 sets per class and
 # 48 samples, which proved too few: the same model scored 0.96x and 0.84x naive on the two.)
 #
+# MORE_SETS=N (a multiple of 4; default 0) also gives each class network a larger test: the
+# same 40 renders and N more sets of seed 1 (indices 40 to 39 + N), N / 4 to each probe pair,
+# two renders each, all of them evaluated ($WORK/eval/<class>-larger).
+#
 # CLASSES (default "wood plastic metal") names the class networks to test; the general
 # network and the classifier's pick are tested only when all three are named (their test
 # holds every class and godot_aluminium). Re-run with the same WORK: finished renders are kept.
 #
-#   [CLASSES=plastic] bash scripts/evaluate_shipped_models.sh SHARED_DATA WORK [MODELS_DIR]
+#   [CLASSES=plastic] [MORE_SETS=80] bash scripts/evaluate_shipped_models.sh SHARED_DATA WORK \
+#       [MODELS_DIR]
 set -euo pipefail
 SHARED=$1 WORK=$2 MODELS=${3:-models} BIN=${BIN:-.venv/bin}
 CLASSES=${CLASSES:-wood plastic metal}
+MORE_SETS=${MORE_SETS:-0}
+if (( MORE_SETS % 4 != 0 )); then echo "MORE_SETS: $MORE_SETS is not a multiple of 4" >&2; exit 2; fi
 for class in $CLASSES; do
     case $class in wood|plastic|metal) ;; *) echo "CLASSES: unknown class $class" >&2; exit 2;; esac
 done
@@ -67,6 +74,25 @@ for class in $RENDERED; do
             --crops 1 --spp 128 --test-materials 0 --test-probes 0
     done
 done
+if (( MORE_SETS > 0 )); then  # the larger tests' further sets and renders
+    for class in $CLASSES; do
+        if [ ! -d "$WORK/sets/$class-more" ]; then  # make-materials draws set i from (seed, i)
+            "$BIN/make-materials" --class "$class" --count $((40 + MORE_SETS)) --seed 1 \
+                --resolution 512 --out "$WORK/sets/$class-more"
+        fi
+        per_group=$((MORE_SETS / 4))
+        for g in 0 1 2 3; do
+            group="$WORK/groups/$class-more-$g"
+            mkdir -p "$group"
+            for i in $(seq $((40 + g * per_group)) $((39 + (g + 1) * per_group))); do
+                ln -sfn "$(realpath "$WORK/sets/$class-more/${class}_s1_$(printf %04d "$i")")" "$group/"
+            done
+            "$BIN/render-dataset" --probes "$WORK/probes/pair$g" --svbrdfs "$group" \
+                --out "$WORK/heldout/$class-more-$g" --resolution 256 --render-size 512 \
+                --rotations 1 --crops 1 --spp 128 --test-materials 0 --test-probes 0
+        done
+    done
+fi
 datasets() {  # --dataset options of the classes given
     for class in "$@"; do for g in 0 1 2 3; do echo --dataset "$WORK/heldout/$class-$g"; done; done
 }
@@ -74,6 +100,12 @@ for class in $CLASSES; do
     "$BIN/sa-evaluate" --model "$MODELS/svbrdf-$class.safetensors" $(datasets "$class") \
         --split all --probes "$WORK/probes" --samples 96 --out "$WORK/eval/$class" \
         > "$WORK/eval/$class.json"
+    if (( MORE_SETS > 0 )); then
+        "$BIN/sa-evaluate" --model "$MODELS/svbrdf-$class.safetensors" $(datasets "$class") \
+            $(for g in 0 1 2 3; do echo --dataset "$WORK/heldout/$class-more-$g"; done) \
+            --split all --probes "$WORK/probes" --samples 100000 \
+            --out "$WORK/eval/$class-larger" > "$WORK/eval/$class-larger.json"
+    fi
 done
 $ALL || exit 0
 "$BIN/sa-evaluate" --model "$MODELS/svbrdf-general.safetensors" \
