@@ -13,16 +13,17 @@ from the albedo and its neighbourhood; it is fit after the other networks, which
 2. **Fit.** Adam on the albedo RMSE of each photo (before the correction's scaling to mean
    0.5: the truth's mean is about 0.5), minibatches of BATCH crops of CROP pixels (one crop
    position per minibatch; the whole photo where it is smaller), ``steps`` steps, the
-   learning rate halved at each step of ``halvings``. A tenth of the photos (CHECK_SHARE) is kept out of the fit; their whole-photo
-   albedo RMSE, with and without the correction, is reported and drawn beside the loss
-   (``WORK/fit.png``).
+   learning rate halved at each step of ``halvings``. A tenth of the photos (CHECK_SHARE) is
+   kept out of the fit; their whole-photo albedo RMSE, with and without the correction, is
+   reported and drawn beside the loss (``WORK/fit.png``).
 
 Step 1 takes 0.12 to 0.19 s per photo on the project's 2-core CPU, step 2 about 0.23 s per
 step; both save their state in WORK (``prepared.pt``, and ``fit.pt`` every CHECKPOINT_EVERY
-steps; train.joint_reading.save_work, read back with torch's safe loader), so a fit cut off starts again where it stopped when run
-with the same options, and a finished fit run again with more ``steps`` goes on. Each step's
-minibatch is drawn from its own seed (``seed``, step) and the fresh correction's weights from
-``seed``, so a resumed fit draws what an uncut one would.
+steps; train.joint_reading.save_work, read back with torch's safe loader), so a fit cut off
+starts again where it stopped when run with the same options, and a finished fit run again
+with more ``steps`` goes on. Each step's minibatch is drawn from its own seed (``seed``,
+step) and the fresh correction's weights from ``seed``, so a resumed fit draws what an uncut
+one would.
 """
 
 from dataclasses import asdict, dataclass
