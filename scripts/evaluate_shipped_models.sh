@@ -55,23 +55,29 @@ done
 real_sets() {  # the real held-out sets of a class
     case $1 in wood) echo materialx_wood;; aluminium) echo godot_aluminium;; esac
 }
+link_sets() {  # link_sets GROUP FOLDER CLASS FIRST LAST: sets FIRST..LAST of FOLDER into GROUP
+    local i
+    for i in $(seq "$4" "$5"); do
+        ln -sfn "$(realpath "$2/${3}_s1_$(printf %04d "$i")")" "$WORK/groups/$1/"
+    done
+}
+render_group() {  # render_group GROUP G: the sets of groups/GROUP under probe pair G
+    "$BIN/render-dataset" --probes "$WORK/probes/pair$2" --svbrdfs "$WORK/groups/$1" \
+        --out "$WORK/heldout/$1" --resolution 256 --render-size 512 --rotations 1 \
+        --crops 1 --spp 128 --test-materials 0 --test-probes 0
+}
 RENDERED=$CLASSES
 $ALL && RENDERED="$RENDERED aluminium"
 for class in $RENDERED; do
     for g in 0 1 2 3; do
-        group="$WORK/groups/$class-$g"
-        mkdir -p "$group"
+        mkdir -p "$WORK/groups/$class-$g"
         if [ "$class" != aluminium ]; then
-            for i in $(seq $((g * 10)) $((g * 10 + 9))); do
-                ln -sfn "$(realpath "$WORK/sets/$class/${class}_s1_$(printf %04d "$i")")" "$group/"
-            done
+            link_sets "$class-$g" "$WORK/sets/$class" "$class" $((g * 10)) $((g * 10 + 9))
         fi
         for set in $(real_sets "$class"); do
-            ln -sfn "$(realpath "$SHARED/svbrdfs/$set")" "$group/"
+            ln -sfn "$(realpath "$SHARED/svbrdfs/$set")" "$WORK/groups/$class-$g/"
         done
-        "$BIN/render-dataset" --probes "$WORK/probes/pair$g" --svbrdfs "$group" \
-            --out "$WORK/heldout/$class-$g" --resolution 256 --render-size 512 --rotations 1 \
-            --crops 1 --spp 128 --test-materials 0 --test-probes 0
+        render_group "$class-$g" "$g"
     done
 done
 if (( MORE_SETS > 0 )); then  # the larger tests' further sets and renders
@@ -82,14 +88,10 @@ if (( MORE_SETS > 0 )); then  # the larger tests' further sets and renders
         fi
         per_group=$((MORE_SETS / 4))
         for g in 0 1 2 3; do
-            group="$WORK/groups/$class-more-$g"
-            mkdir -p "$group"
-            for i in $(seq $((40 + g * per_group)) $((39 + (g + 1) * per_group))); do
-                ln -sfn "$(realpath "$WORK/sets/$class-more/${class}_s1_$(printf %04d "$i")")" "$group/"
-            done
-            "$BIN/render-dataset" --probes "$WORK/probes/pair$g" --svbrdfs "$group" \
-                --out "$WORK/heldout/$class-more-$g" --resolution 256 --render-size 512 \
-                --rotations 1 --crops 1 --spp 128 --test-materials 0 --test-probes 0
+            mkdir -p "$WORK/groups/$class-more-$g"
+            link_sets "$class-more-$g" "$WORK/sets/$class-more" "$class" \
+                $((40 + g * per_group)) $((39 + (g + 1) * per_group))
+            render_group "$class-more-$g" "$g"
         done
     done
 fi
