@@ -1,4 +1,4 @@
-"""Fit the JointReading head of a photo-affine model file and write the model with it
+"""Fit the JointReading head of a model file and write the model with it
 (train.joint_reading; models/README.md, "The joint reading").
 
     .venv/bin/python scripts/fit_joint_reading.py MODEL.safetensors OUT.safetensors \
@@ -30,14 +30,17 @@ from train.model_files import fit_part_onto_model
 @click.option("--work", required=True, type=click.Path(), help="Folder for the prepared data.")
 @click.option("--photos", default=FitConfig.photos, show_default=True)
 @click.option("--relights", default=FitConfig.relights, show_default=True)
+@click.option("--mix-specular/--own-specular", default=FitConfig.mix_specular,
+              show_default=True, help="Photos of mixed specular pairs, or of each set's own.")
 @click.option("--steps", default=FitConfig.steps, show_default=True)
 @click.option("--seed", default=FitConfig.seed, show_default=True)
-def main(model, out, maps, probes, work, photos, relights, steps, seed):
+def main(model, out, maps, probes, work, photos, relights, mix_specular, steps, seed):
     torch.manual_seed(seed)
-    cfg = FitConfig(work=work, maps=maps, photos=photos, relights=relights, steps=steps,
-                    seed=seed)
+    cfg = FitConfig(work=work, maps=maps, photos=photos, relights=relights,
+                    mix_specular=mix_specular, steps=steps, seed=seed)
+    specular = "--mix-specular" if mix_specular else "--own-specular"
     command = (f"scripts/fit_joint_reading.py --photos {photos} --relights {relights} "
-               f"--steps {steps} --seed {seed}, maps {maps}")
+               f"{specular} --steps {steps} --seed {seed}, maps {maps}")
     try:
         report = fit_part_onto_model(model, out, "joint_reading", probes,
                                      lambda net, bank: fit(cfg, net, bank), command)

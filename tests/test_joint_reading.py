@@ -17,6 +17,7 @@ from train.networks import (PHOTO_QUANTILES, JointReading, NetworkConfig, SVBRDF
 
 TINY_AFFINE = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32,
                             albedo_network="photo-affine")
+TINY_MAP = dataclasses.replace(TINY_AFFINE, albedo_network="map")
 
 
 @pytest.fixture(scope="module")
@@ -24,9 +25,23 @@ def bank():
     return ProbeBank([load_probe(path).radiance for path in find_probes(BUNDLED_PROBES)])
 
 
-def test_the_head_needs_the_photo_affine_albedo_network():
-    with pytest.raises(ValueError, match="photo-affine"):
-        NetworkConfig(joint_reading=True)
+def test_beside_a_map_albedo_network_the_head_corrects_the_homogeneous_readings_only():
+    """No reflection share to read: four values, the map network's albedo as it was."""
+    torch.manual_seed(0)
+    net = SVBRDFNet(dataclasses.replace(TINY_MAP, joint_reading=True)).eval()
+    assert not net.joint.reads_share and net.joint.values == 4
+    assert net.joint.mean.shape == (4 + 3 * len(PHOTO_QUANTILES),)
+    image = torch.rand(2, 3, 32, 32)
+    with torch.no_grad():
+        before = net(image)
+        net.joint.mlp[2].bias.copy_(torch.tensor([0.5, 0.5, 0.5, -1.0]))
+        after = net(image)
+        albedo_alone = net(image, parts=("albedo",))
+    assert torch.allclose(after["log_specular"], before["log_specular"] + 0.5, atol=1e-5)
+    assert torch.allclose(after["log_roughness"], before["log_roughness"] - 1.0, atol=1e-5)
+    assert torch.equal(after["albedo"], before["albedo"])
+    assert torch.equal(albedo_alone["albedo"], before["albedo"])
+    assert net.joint_readings(image)[2] is None
 
 
 def test_a_fresh_head_is_the_identity():
@@ -91,15 +106,21 @@ def test_flat_tables_give_the_renderers_flat_sample(bank):
                                   rtol=rtol, atol=1e-4), (alpha, rotation)
 
 
-def test_fitting_lowers_the_relit_error_and_reuses_its_prepared_data(tmp_path, bank):
+@pytest.mark.parametrize("config, mix_specular", [(TINY_AFFINE, True), (TINY_MAP, False)],
+                         ids=["photo-affine", "map"])
+def test_fitting_lowers_the_relit_error_and_reuses_its_prepared_data(tmp_path, bank, config,
+                                                                      mix_specular):
     torch.manual_seed(0)
-    net = SVBRDFNet(dataclasses.replace(TINY_AFFINE, joint_reading=True)).eval()
+    net = SVBRDFNet(dataclasses.replace(config, joint_reading=True)).eval()
     cfg = FitConfig(work=str(tmp_path / "work"), maps=str(BUNDLED_MATERIALS), photos=40,
-                    relights=2, steps=300)
+                    relights=2, mix_specular=mix_specular, steps=300)
     report = fit(cfg, net, bank)
     assert report["check_photos"] == 4
     assert (tmp_path / "work" / "fit.png").stat().st_size > 1000
     prepared = torch.load(tmp_path / "work" / "prepared.pt", weights_only=True)["data"]
+    # a photo-affine network's albedo is made from the photo, a map network's kept
+    assert ("photo" in prepared) == (config.albedo_network == "photo-affine")
+    assert ("albedo" in prepared) == (config.albedo_network == "map")
     tables = flat_radiance_tables(bank)
     rows = torch.nonzero(prepared["photo_of_relight"] < 36)[:, 0]  # the fitted photos
     with torch.no_grad():
@@ -113,11 +134,12 @@ def test_fitting_lowers_the_relit_error_and_reuses_its_prepared_data(tmp_path, b
     assert again["check_relit_before"] == pytest.approx(report["check_relit_before"])
 
 
-def test_a_model_file_keeps_the_head(tmp_path):
+@pytest.mark.parametrize("config", [TINY_AFFINE, TINY_MAP], ids=["photo-affine", "map"])
+def test_a_model_file_keeps_the_head(tmp_path, config):
     torch.manual_seed(0)
-    net = SVBRDFNet(dataclasses.replace(TINY_AFFINE, joint_reading=True)).eval()
+    net = SVBRDFNet(dataclasses.replace(config, joint_reading=True)).eval()
     with torch.no_grad():
-        net.joint.mlp[2].bias.copy_(torch.tensor([0.25, 0.0, -0.25, 0.5, 1.0]))
+        net.joint.mlp[2].bias.copy_(torch.tensor([0.25, 0.0, -0.25, 0.5, 1.0][:net.joint.values]))
         net.joint.scale.fill_(2.0)
     path = tmp_path / "m.safetensors"
     save_model(net, path, {"class": "plastic"})

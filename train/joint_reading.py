@@ -1,16 +1,21 @@
-"""Fitting the JointReading head (train.networks) of a photo-affine SVBRDF-net.
+"""Fitting the JointReading head (train.networks) of an SVBRDF-net.
 
-The homogeneous network reads the specular albedo and roughness, the photo-affine albedo
+The homogeneous network reads the specular albedo and roughness, a photo-affine albedo
 network the reflection's share of the photo; on a flat glossy sample both read the same
 offset, which a lighter albedo explains as well as a stronger reflection. The head reads the
-five values together, with quantiles of the photo's values (train.networks.photo_statistics),
-and is fit, the networks frozen, on the evaluation's relit error (train.estimate_evaluation):
+five values together (beside a map albedo network, the homogeneous network's four), with
+quantiles of the photo's values (train.networks.photo_statistics), and is fit, the networks
+frozen, on the evaluation's relit error (train.estimate_evaluation), which a network trained
+on the parameters' own errors does not weigh (a roughness read too low, a sharp highlight
+where the truth's is broad, costs more relit error than one read as much too high):
 
 1. **Photos.** ``photos`` labeled samples rendered from a folder of material maps under
-   training probes (train.map_samples.MapSampler, mixed specular pairs, 256 px), rounded to
-   8 bits after gamma 1/2.2 encoding as sa-evaluate's PNG photos are, then read by the
-   frozen networks: their five readings and the photo statistics. The photo and the truth's
-   maps are kept box filtered to RELIT_SIZE px.
+   training probes (train.map_samples.MapSampler, 256 px; mixed specular pairs unless
+   ``mix_specular`` is off: then each set's own pair, where the generator ties the two to
+   the set's look, as wood's finish does), rounded to 8 bits after gamma 1/2.2 encoding as
+   sa-evaluate's PNG photos are, then read by the frozen networks: their readings and the
+   photo statistics. The photo (beside a map albedo network, the network's albedo instead)
+   and the truth's maps are kept box filtered to RELIT_SIZE px.
 2. **Relights.** Each photo ``relights`` times under another probe of the bank at a random
    rotation: the truth rendered by the torch renderer at RELIT_SIZE px, auto-exposed (its
    scale kept) and clamped to [0, 1].
@@ -20,9 +25,11 @@ and is fit, the networks frozen, on the evaluation's relit error (train.estimate
    alphas (ALPHA_GRID, interpolated in log alpha) give it. The estimate's relit image is its
    photo-affine albedo times the first plus its specular albedo times the second, exposed
    with the truth's scale: a step costs no render (a render of the network's normals would
-   cost about a second per minibatch on the project's CPU). The networks' normals are left
-   out of the fit (the plastic network's are nearly flat: its normal angle error is 1.05x
-   the flat baseline's); sa-evaluate judges the head with them.
+   cost about a second per minibatch on the project's CPU). The estimate's albedo is the
+   photo-affine albedo of the corrected share, or the map network's (which the head does not
+   change). The networks' normals are left out of the fit (the plastic network's are nearly
+   flat: its normal angle error is 1.05x the flat baseline's; the wood network's 0.75x);
+   sa-evaluate judges the head with them.
 4. **Fit.** Adam (lr 1e-3, weight decay 1e-4) on the relit RMSE (the estimate's clamp leaks,
    train.losses.RELIT_CLAMP_LEAK), minibatches of BATCH relights, ``steps`` steps. A tenth of
    the photos (CHECK_SHARE) is kept out of the fit; their relit error, with and without the
@@ -75,6 +82,8 @@ class FitConfig:
     """Photos rendered (CHECK_SHARE of them kept out of the fit)."""
     relights: int = 2
     """Relights per photo, each under another training probe."""
+    mix_specular: bool = True
+    """Photos of mixed specular pairs (train.map_samples) or of each set's own."""
     steps: int = 10000
     seed: int = 0
 
@@ -86,29 +95,35 @@ def photo_round_trip(image):
     return encoded ** PHOTO_GAMMA
 
 
-def photo_batches(maps, bank, size, count, rng):
+def photo_batches(maps, bank, size, count, rng, mix_specular=True):
     """``count`` labeled samples rendered from the material folders of ``maps`` under the
     probes of ``bank`` (MapSampler: ``size`` px crops of the maps resampled to twice that,
-    mixed specular pairs), drawn with ``rng`` in batches of PHOTO_BATCH: yields (batch,
-    image), ``image`` the batch's photos as sa-evaluate reads them (photo_round_trip)."""
-    sampler = MapSampler(maps, bank, range(len(bank)), size, 2 * size, mix_specular=True)
+    mixed specular pairs unless ``mix_specular`` is False), drawn with ``rng`` in batches of
+    PHOTO_BATCH: yields (batch, image), ``image`` the batch's photos as sa-evaluate reads them
+    (photo_round_trip)."""
+    sampler = MapSampler(maps, bank, range(len(bank)), size, 2 * size,
+                         mix_specular=mix_specular)
     for start in tqdm(range(0, count, PHOTO_BATCH), desc="photos", unit="batch"):
         batch = sampler.batch(rng, min(PHOTO_BATCH, count - start))
         yield batch, photo_round_trip(batch["image"])
 
 
 def prepare(cfg, net, bank):
-    """Steps 1 and 2 of the module docstring: a dict of tensors (readings (N, INPUTS),
-    photo (N, 3, s, s), relit_probe / exposure / relit (N R, ...), photo_of_relight (N R,))."""
+    """Steps 1 and 2 of the module docstring: a dict of tensors (readings (N, inputs of the
+    head), photo (N, 3, s, s), or beside a map albedo network albedo (N, 3, s, s) instead,
+    relit_probe / exposure / relit (N R, ...), photo_of_relight (N R,))."""
     rng = np.random.default_rng([cfg.seed, 1])
     readings, photos, truths = [], [], []
-    for batch, image in photo_batches(cfg.maps, bank, net.config.input_size, cfg.photos, rng):
+    share = net.joint.reads_share
+    for batch, image in photo_batches(cfg.maps, bank, net.config.input_size, cfg.photos, rng,
+                                      cfg.mix_specular):
         with torch.no_grad():
             homogeneous = net.homogeneous(image)
-            logit = net.albedo.affine(image)
+            logit = net.albedo.affine(image) if share else None
             readings.append(net.joint.readings(homogeneous[:, :3], homogeneous[:, 3:], logit,
                                                photo_statistics(image)))
-        photos.append(functional.interpolate(image, size=RELIT_SIZE, mode="area"))
+            kept = image if share else net.albedo(image)
+        photos.append(functional.interpolate(kept, size=RELIT_SIZE, mode="area"))
         truths.append(maps_at_size({name: batch[name] for name in
                                     ("albedo", "normal", "log_specular", "log_roughness")},
                                    RELIT_SIZE) | {"probe": torch.as_tensor(
@@ -132,7 +147,7 @@ def prepare(cfg, net, bank):
             exposure.append(scale)
             relit.append((hdr * scale[:, None, None, None]).clamp(0.0, 1.0))
             photo_of_relight.append(index)
-    return {"readings": torch.cat(readings), "photo": torch.cat(photos),
+    return {"readings": torch.cat(readings), "photo" if share else "albedo": torch.cat(photos),
             "relit_probe": torch.cat(relit_probe), "exposure": torch.cat(exposure),
             "relit": torch.cat(relit), "photo_of_relight": torch.cat(photo_of_relight)}
 
@@ -167,15 +182,16 @@ def specular_at(tables, log_roughness):
 
 def relit_errors(head, prepared, tables, relights, leak=0.0):
     """Relit RMSE (len(relights),) of the head's corrected readings for the given relight
-    rows of ``prepared``; ``head`` None: the networks' own readings."""
+    rows of ``prepared`` (of a photo-affine network where it holds the photos, else of a map
+    albedo network); ``head`` None: the networks' own readings."""
     photo = prepared["photo_of_relight"][relights]
     readings = prepared["readings"][photo]
-    if head is None:
-        log_specular, log_roughness, logit = readings[:, :3], readings[:, 3:4], readings[:, 4:5]
+    if head is not None:
+        log_specular, log_roughness, logit = head.corrected(readings)
     else:
-        log_specular, log_roughness, logit = head(readings[:, :3], readings[:, 3:4],
-                                                  readings[:, 4:5], readings[:, 5:])
-    albedo = photo_affine_albedo(logit, prepared["photo"][photo])
+        log_specular, log_roughness, logit = readings[:, :3], readings[:, 3:4], readings[:, 4:5]
+    albedo = (photo_affine_albedo(logit, prepared["photo"][photo]) if "photo" in prepared
+              else prepared["albedo"][photo])
     diffuse, specular = (table[prepared["relit_probe"][relights]] for table in tables)
     radiance = albedo * diffuse[:, :, None, None] + (
         log_specular.exp() * specular_at(specular, log_roughness[:, 0]))[:, :, None, None]
@@ -189,10 +205,11 @@ def fit(cfg, net, bank):
     work = Path(cfg.work)
     work.mkdir(parents=True, exist_ok=True)
     options = {"maps": cfg.maps, "photos": cfg.photos, "relights": cfg.relights,
-               "seed": cfg.seed, "model": getattr(net, "source", None), "probes": len(bank)}
+               "seed": cfg.seed, "model": getattr(net, "source", None), "probes": len(bank),
+               "mix_specular": cfg.mix_specular}
     """What the prepared data depends on."""
     prepared = saved_work(work / "prepared.pt", options)
-    net.joint = JointReading()
+    net.joint = JointReading(reads_share=net.config.albedo_network == "photo-affine")
     if prepared is None:
         prepared = prepare(cfg, net, bank)
         save_work(work / "prepared.pt", options, prepared)

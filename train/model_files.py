@@ -125,17 +125,18 @@ def _shipped_network(path):
 
 
 def fit_part_onto_model(model, out, part, probes, fit, command):
-    """Fit a part that a photo-affine model takes after training (``part``, its NetworkConfig
-    flag: ``joint_reading`` or ``albedo_correction``) onto the model file ``model`` and write
-    the model with it to ``out``: ``fit(net, bank)`` (``bank``: the probes of the folder
-    ``probes``) fits the part in place and returns a report, kept in the file's metadata as
-    ``<part>_fit``; ``command`` (the script and its options) is added to the recipe. Returns
-    the report."""
+    """Fit a part that a model takes after training (``part``, its NetworkConfig flag:
+    ``joint_reading``, or ``albedo_correction`` of a photo-affine model) onto the model file
+    ``model`` and write the model with it to ``out``: ``fit(net, bank)`` (``bank``: the
+    probes of the folder ``probes``) fits the part in place and returns a report, kept in
+    the file's metadata as ``<part>_fit``; ``command`` (the script and its options) is added
+    to the recipe. Returns the report."""
     metadata = model_metadata(model, FORMAT, "model")
     net = load_network(model)
-    if net.config.albedo_network != "photo-affine":
-        raise InputError(model, f"{part} needs a photo-affine albedo network")
-    net.config = dataclasses.replace(net.config, **{part: True})
+    try:
+        net.config = dataclasses.replace(net.config, **{part: True})
+    except ValueError as error:  # a part this network's configuration cannot take
+        raise InputError(model, str(error)) from None
     report = fit(net, ProbeBank([load_probe(path).radiance for path in find_probes(probes)]))
     save_model(net, out, metadata | {"recipe": f"{metadata.get('recipe', '')}; then {command}",
                                      f"{part}_fit": json.dumps(report)})

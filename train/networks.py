@@ -28,13 +28,16 @@ All three networks share the structure of their analysis sub-network: ``levels``
   offset is what the photo alone does not tell. The albedo keeps the photo's every detail,
   and with it what this model leaves out (the light's color, shading of relief, glints of a
   glossy relief).
-- ``JointReading`` (``joint_reading=True``, beside a photo-affine albedo network): a small
-  head that reads the homogeneous network's specular albedo and roughness and the albedo
-  network's reflection share together, with quantiles of the photo's values, and corrects all
-  five. The two networks read one ambiguity apart (a flat photo's reflection is an offset
-  that a lighter albedo explains as well); the head is fit after them, on the evaluation's
-  relit error (train.joint_reading), and starts as the identity (its last layer zero).
-  With ``view_averaging``, its readings are averaged over the photo's 8 dihedral views.
+- ``JointReading`` (``joint_reading=True``): a small head that reads the homogeneous
+  network's specular albedo and roughness, with quantiles of the photo's values, and
+  corrects them; beside a photo-affine albedo network it reads and corrects the albedo
+  network's reflection share too (five values). The two networks read one ambiguity apart (a
+  flat photo's reflection is an offset that a lighter albedo explains as well); beside a
+  map albedo network the head corrects the homogeneous network's readings for the relit
+  error they cause (a roughness read too low costs more than one read too high). The head is
+  fit after the networks, on the evaluation's relit error (train.joint_reading), and starts
+  as the identity (its last layer zero). With ``view_averaging``, its readings are averaged
+  over the photo's 8 dihedral views.
 - ``AlbedoCorrection`` (``albedo_correction=True``, beside a photo-affine albedo network): a
   small local network that multiplies the photo-affine albedo by a gain per pixel and channel,
   read from the albedo's neighbourhood (about 33 px) and its mean features over the photo.
@@ -81,14 +84,14 @@ class NetworkConfig:
     """The albedo network: "map" (the paper's: a U-Net predicts every pixel) or
     "photo-affine" (the photo less a predicted grey offset, PhotoAffineAlbedoNet)."""
     joint_reading: bool = False
-    """A JointReading head corrects the specular albedo, roughness and reflection share
-    (needs the photo-affine albedo network)."""
+    """A JointReading head corrects the specular albedo and roughness (and the reflection
+    share of a photo-affine albedo network)."""
     albedo_correction: bool = False
     """An AlbedoCorrection network refines the albedo locally (needs the photo-affine albedo
     network)."""
     view_averaging: bool = False
-    """The JointReading head's readings (specular albedo, roughness, reflection share) are
-    their mean over the photo's 8 dihedral views (needs the joint reading head)."""
+    """The JointReading head's readings (specular albedo, roughness, and reflection share)
+    are their mean over the photo's 8 dihedral views (needs the joint reading head)."""
 
     def __post_init__(self):
         if self.albedo_network not in ALBEDO_NETWORKS:
@@ -97,8 +100,6 @@ class NetworkConfig:
         if self.homogeneous_pooling not in HOMOGENEOUS_POOLINGS:
             raise ValueError(f"homogeneous_pooling {self.homogeneous_pooling!r} is not one of "
                              f"{', '.join(HOMOGENEOUS_POOLINGS)}")
-        if self.joint_reading and self.albedo_network != "photo-affine":
-            raise ValueError("joint_reading needs the photo-affine albedo network")
         if self.albedo_correction and self.albedo_network != "photo-affine":
             raise ValueError("albedo_correction needs the photo-affine albedo network")
         if self.view_averaging and not self.joint_reading:
@@ -245,29 +246,40 @@ def photo_statistics(image):
 
 class JointReading(nn.Module):
     """(log relative specular albedo (B, 3), log roughness (B, 1), reflection share logit
-    (B, 1), photo_statistics (B, 27)) -> the same three, corrected. An MLP of one hidden layer
-    reads them, each input standardized by the buffers ``mean`` and ``scale`` (set when the
-    head is fit), and adds its five outputs; its last layer starts at zero (the identity)."""
+    (B, 1) or None, photo_statistics (B, 27)) -> the same three, corrected (the logit None
+    where the head does not read it: ``reads_share`` False, beside a map albedo network). An
+    MLP of one hidden layer reads them, each input standardized by the buffers ``mean`` and
+    ``scale`` (set when the head is fit), and adds its outputs (``values``: 5, or 4 without the
+    share) to the values read; its last layer starts at zero (the identity)."""
 
-    INPUTS = 5 + 3 * len(PHOTO_QUANTILES)
-
-    def __init__(self):
+    def __init__(self, reads_share=True):
         super().__init__()
-        self.register_buffer("mean", torch.zeros(self.INPUTS))
-        self.register_buffer("scale", torch.ones(self.INPUTS))
-        self.mlp = nn.Sequential(nn.Linear(self.INPUTS, JOINT_READING_HIDDEN),
-                                 nn.ReLU(inplace=True), nn.Linear(JOINT_READING_HIDDEN, 5))
+        self.reads_share = reads_share
+        self.values = 5 if reads_share else 4
+        inputs = self.values + 3 * len(PHOTO_QUANTILES)
+        self.register_buffer("mean", torch.zeros(inputs))
+        self.register_buffer("scale", torch.ones(inputs))
+        self.mlp = nn.Sequential(nn.Linear(inputs, JOINT_READING_HIDDEN),
+                                 nn.ReLU(inplace=True),
+                                 nn.Linear(JOINT_READING_HIDDEN, self.values))
         nn.init.zeros_(self.mlp[2].weight)
         nn.init.zeros_(self.mlp[2].bias)
 
     def readings(self, log_specular, log_roughness, logit, statistics):
-        """The (B, INPUTS) inputs of the head, before standardizing."""
-        return torch.cat([log_specular, log_roughness, logit, statistics], 1)
+        """The (B, values + 27) inputs of the head, before standardizing."""
+        shares = [logit] if self.reads_share else []
+        return torch.cat([log_specular, log_roughness, *shares, statistics], 1)
 
     def forward(self, log_specular, log_roughness, logit, statistics):
         inputs = self.readings(log_specular, log_roughness, logit, statistics)
-        corrected = inputs[:, :5] + self.mlp((inputs - self.mean) / self.scale)
-        return corrected[:, :3], corrected[:, 3:4], corrected[:, 4:5]
+        return self.corrected(inputs)
+
+    def corrected(self, inputs):
+        """(log specular (B, 3), log roughness (B, 1), logit (B, 1) or None): the head's
+        correction of its ``inputs`` (readings)."""
+        corrected = inputs[:, :self.values] + self.mlp((inputs - self.mean) / self.scale)
+        logit = corrected[:, 4:5] if self.reads_share else None
+        return corrected[:, :3], corrected[:, 3:4], logit
 
 
 ALBEDO_CORRECTION_WIDTH = 16
@@ -341,27 +353,30 @@ class SVBRDFNet(nn.Module):
                        else PhotoAffineAlbedoNet(config))
         self.normal = MapNet(config, torch.sigmoid)
         if config.joint_reading:
-            self.joint = JointReading()
+            self.joint = JointReading(reads_share=config.albedo_network == "photo-affine")
         if config.albedo_correction:
             self.correction = AlbedoCorrection()
         self.to(memory_format=torch.channels_last)
 
     def forward(self, image, parts=tuple(PARTS)):
         """``image`` (B, 3, S, S) -> dict of albedo (B, 3, S, S) relative diffuse albedo
-        (positive, mean about 0.5); normal (B, 3, S, S) unit tangent-space normals; log_specular (B, 3);
-        log_roughness (B, 1). Only the networks named in ``parts`` (keys of PARTS) run, and
+        (positive, mean about 0.5); normal (B, 3, S, S) unit tangent-space normals;
+        log_specular (B, 3); log_roughness (B, 1). Only the networks named in ``parts`` (keys of PARTS) run, and
         only their labels are returned (training one network alone). With a JointReading
-        head, the specular albedo, roughness and albedo are the head's corrected readings (both
-        homogeneous readings run when either part is asked for). With an AlbedoCorrection, the
+        head, the specular albedo, roughness and (beside a photo-affine albedo network) albedo
+        are the head's corrected readings (the homogeneous network runs whenever the head
+        does). With an AlbedoCorrection, the
         albedo is its corrected one."""
         check_images(image, 3, self.config.input_size)
         outputs = {}
-        if self.config.joint_reading and ("homogeneous" in parts or "albedo" in parts):
+        if self.config.joint_reading and ("homogeneous" in parts or (
+                "albedo" in parts and self.joint.reads_share)):
             log_specular, log_roughness, logit = self.joint_readings(image)
             if "homogeneous" in parts:
                 outputs["log_specular"], outputs["log_roughness"] = log_specular, log_roughness
             if "albedo" in parts:
-                outputs["albedo"] = photo_affine_albedo(logit, image)
+                outputs["albedo"] = (self.albedo(image) if logit is None
+                                     else photo_affine_albedo(logit, image))
         else:
             if "homogeneous" in parts:
                 homogeneous = self.homogeneous(image)  # (B, 4)
@@ -377,17 +392,20 @@ class SVBRDFNet(nn.Module):
 
     def joint_readings(self, image):
         """The JointReading head's corrected log relative specular albedo (B, 3), log
-        roughness (B, 1) and reflection share logit (B, 1) of ``image`` (B, 3, S, S); with
+        roughness (B, 1) and reflection share logit (B, 1; None beside a map albedo
+        network) of ``image`` (B, 3, S, S); with
         ``view_averaging``, each the mean of the readings of the photo's 8 dihedral views
         (dihedral_views): a homogeneous material's parameters do not change when its photo
         is turned or mirrored, and training saw every probe at every rotation."""
         views = dihedral_views(image) if self.config.view_averaging else image
         homogeneous = self.homogeneous(views)
-        readings = self.joint(homogeneous[:, :3], homogeneous[:, 3:], self.albedo.affine(views),
+        logit = self.albedo.affine(views) if self.joint.reads_share else None
+        readings = self.joint(homogeneous[:, :3], homogeneous[:, 3:], logit,
                               photo_statistics(views))
         if not self.config.view_averaging:
             return readings
-        return tuple(r.unflatten(0, (8, len(image))).mean(0) for r in readings)
+        return tuple(None if r is None else r.unflatten(0, (8, len(image))).mean(0)
+                     for r in readings)
 
     def photo_affine_albedo(self, image, reference):
         """The photo-affine albedo (B, 3, H, W) of ``image`` (any size) with the reflection
