@@ -361,12 +361,11 @@ class SVBRDFNet(nn.Module):
     def forward(self, image, parts=tuple(PARTS)):
         """``image`` (B, 3, S, S) -> dict of albedo (B, 3, S, S) relative diffuse albedo
         (positive, mean about 0.5); normal (B, 3, S, S) unit tangent-space normals;
-        log_specular (B, 3); log_roughness (B, 1). Only the networks named in ``parts`` (keys of PARTS) run, and
-        only their labels are returned (training one network alone). With a JointReading
-        head, the specular albedo, roughness and (beside a photo-affine albedo network) albedo
-        are the head's corrected readings (the homogeneous network runs whenever the head
-        does). With an AlbedoCorrection, the
-        albedo is its corrected one."""
+        log_specular (B, 3); log_roughness (B, 1). Only the networks named in ``parts`` (keys
+        of PARTS) run, and only their labels are returned (training one network alone). With a
+        JointReading head, the specular albedo, roughness and (beside a photo-affine albedo
+        network) albedo are the head's corrected readings (the homogeneous network runs
+        whenever the head does). With an AlbedoCorrection, the albedo is its corrected one."""
         check_images(image, 3, self.config.input_size)
         outputs = {}
         if self.config.joint_reading and ("homogeneous" in parts or (
