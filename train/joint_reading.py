@@ -23,7 +23,7 @@ where the truth's is broad, costs more relit error than one read as much too hig
    uniform and does not change with the probe's rotation about +z: per probe, the diffuse
    radiance of albedo 1 and the specular radiance of specular albedo 1 on a grid of Ward
    alphas (ALPHA_GRID, interpolated in log alpha) give it. The estimate's relit image is its
-   photo-affine albedo times the first plus its specular albedo times the second, exposed
+   albedo times the first plus its specular albedo times the second, exposed
    with the truth's scale: a step costs no render (a render of the network's normals would
    cost about a second per minibatch on the project's CPU). The estimate's albedo is the
    photo-affine albedo of the corrected share, or the map network's (which the head does not
@@ -188,7 +188,7 @@ def relit_errors(head, prepared, tables, relights, leak=0.0):
     readings = prepared["readings"][photo]
     if head is not None:
         log_specular, log_roughness, logit = head.corrected(readings)
-    else:
+    else:  # the logit column is read only where the photos are (a photo-affine network)
         log_specular, log_roughness, logit = readings[:, :3], readings[:, 3:4], readings[:, 4:5]
     albedo = (photo_affine_albedo(logit, prepared["photo"][photo]) if "photo" in prepared
               else prepared["albedo"][photo])
