@@ -9,7 +9,7 @@ Both results must hold the same samples (sa-evaluate with the same data, --sampl
 ratio the model card reports), the paired difference NEW - BASE over that naive mean with its
 standard error over photos, the share of photos NEW does better on, and the standard deviation
 and 5% / 95% quantiles of NEW's ratio when the material sets are drawn again with replacement
-(a photo's set: its sample name less the last ``_NNN``).
+(material_set: the set a photo's sample name names).
 """
 
 import json
@@ -36,7 +36,11 @@ def per_photo(path, metric):
 
 
 def material_set(sample):
-    """The material set of a sample name: 'wood_s1_0003_001' -> 'wood_s1_0003'."""
+    """The material set of a sample name: of a render-dataset sample, its first part
+    ('wood_s1_0003__circus_arena__r00_c00' -> 'wood_s1_0003'); of a sample sa-evaluate renders
+    from material folders, the name less its number ('wood_s1_0003_001' -> 'wood_s1_0003')."""
+    if "__" in sample:
+        return sample.split("__")[0]
     return sample.rsplit("_", 1)[0]
 
 

@@ -49,6 +49,12 @@ def test_the_bootstrap_draws_whole_sets():
         assert min(abs(quantile - value) for value in (0.0, 0.6, 0.75)) < 1e-9
 
 
+def test_the_set_of_a_sample_is_read_from_either_kind_of_name():
+    assert comparison.material_set("wood_s1_0003__circus_arena__r00_c00") == "wood_s1_0003"
+    assert comparison.material_set("materialx_wood__env-lab__r00_c00") == "materialx_wood"
+    assert comparison.material_set("wood_s12_0052_000") == "wood_s12_0052"
+
+
 def test_runs_of_other_photos_are_refused_with_one_line(tmp_path):
     base = results_file(tmp_path / "base.json", BASE)
     other = results_file(tmp_path / "other.json", NEW | {"wood_s1_0002_000": (0.1, 0.1)})
