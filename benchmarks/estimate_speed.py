@@ -1,7 +1,8 @@
 """Benchmark of SVBRDF-net inference: milliseconds per photo (network forward pass only, batch
 of one, after warm-up) for the paper's, the compact (shipped models; with a U-Net or a
 photo-affine albedo network, its joint reading head and its albedo correction, then with view
-averaging too, as the plastic model has) and the small configuration, and for the material
+averaging too, as the plastic model has; the U-Net with a joint reading head, as the wood model
+has) and the small configuration, and for the material
 classifier's probabilities of a 256 px photo (its 8 views; alone and with a plastic-or-metal
 network, as the shipped file has). Prints JSON.
 
@@ -40,11 +41,13 @@ def milliseconds(run, photo, repeats, device):
 @click.option("--repeats", default=10, show_default=True)
 def main(device, repeats):
     results = {}
+    map_joint = dataclasses.replace(COMPACT_CONFIG, joint_reading=True)
     photo_affine = dataclasses.replace(COMPACT_CONFIG, albedo_network="photo-affine")
     joint = dataclasses.replace(photo_affine, joint_reading=True)
     corrected = dataclasses.replace(joint, albedo_correction=True)
     averaged = dataclasses.replace(corrected, view_averaging=True)
     for name, config in (("paper", NetworkConfig()), ("compact", COMPACT_CONFIG),
+                         ("compact, joint reading", map_joint),
                          ("compact, photo-affine albedo", photo_affine),
                          ("compact, photo-affine albedo, joint reading", joint),
                          ("compact, photo-affine albedo, joint reading, albedo correction",
