@@ -52,12 +52,14 @@ def compare(base, new, draws, seed):
     naive = np.array([base[n][1] for n in names])
     scale = naive.mean()
     difference = (model_new - model_base) / scale
-    sets = sorted({material_set(n) for n in names})
-    rows = {s: [i for i, n in enumerate(names) if material_set(n) == s] for s in sets}
+    rows_of_set = {}
+    for row, name in enumerate(names):
+        rows_of_set.setdefault(material_set(name), []).append(row)
+    sets = list(rows_of_set.values())
     rng = np.random.default_rng(seed)
     ratios = []
     for _ in range(draws):
-        chosen = np.concatenate([rows[sets[i]] for i in rng.integers(len(sets), size=len(sets))])
+        chosen = np.concatenate([sets[i] for i in rng.integers(len(sets), size=len(sets))])
         ratios.append(model_new[chosen].mean() / naive[chosen].mean())
     return {"photos": len(names), "sets": len(sets),
             "base_ratio": model_base.mean() / scale, "new_ratio": model_new.mean() / scale,
