@@ -18,8 +18,8 @@ import time
 import click
 import torch
 
-from train.material_classifier import MaterialClassifier
-from train.networks import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig, SVBRDFNet
+from train.estimation.material_classifier import MaterialClassifier
+from train.networks.svbrdf_net import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig, SVBRDFNet
 
 
 def milliseconds(run, photo, repeats, device):

@@ -1,4 +1,4 @@
-"""Benchmark of full-resolution maps (train.full_resolution) with the shipped general model:
+"""Benchmark of full-resolution maps (train.estimation.full_resolution) with the shipped general model:
 seconds per photo for a 1024x1024 and a 2048x1536 photo (the bundled photo resized, so the
 network sees texture), and the process's peak resident memory. Prints JSON.
 
@@ -16,9 +16,9 @@ import click
 import torch
 
 from render.common.images import resize
-from train.full_resolution import TILE_OVERLAP, full_resolution_maps
-from train.model_files import load_network, shipped_model_path
-from train.photos import read_linear_photo
+from train.data.photos import read_linear_photo
+from train.estimation.full_resolution import TILE_OVERLAP, full_resolution_maps
+from train.networks.model_files import load_network, shipped_model_path
 
 PHOTO = Path(__file__).resolve().parent.parent / "scenes" / "photos" / "brick-reference-01.jpg"
 

@@ -23,10 +23,10 @@ import click
 import numpy as np
 import torch
 
-from train.model_files import shipped_model_path
-from train.networks import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig
-from train.self_augmentation import random_lightings, self_augmented_batch
-from train.trainer import Run, TrainConfig
+from train.networks.model_files import shipped_model_path
+from train.networks.svbrdf_net import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig
+from train.training.self_augmentation import random_lightings, self_augmented_batch
+from train.training.trainer import Run, TrainConfig
 
 REPO = Path(__file__).resolve().parent.parent
 NETWORKS = {"compact": COMPACT_CONFIG, "small": SMALL_CPU_CONFIG, "paper": NetworkConfig()}

@@ -29,7 +29,7 @@ from pathlib import Path
 import click
 
 from render.dataset.generator import DatasetConfig, run
-from train.checkpoints import checkpoint_files, load_checkpoint
+from train.networks.checkpoints import checkpoint_files, load_checkpoint
 
 REPO = Path(__file__).resolve().parent.parent
 

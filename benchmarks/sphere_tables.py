@@ -1,4 +1,4 @@
-"""Benchmark of sa-validate's sphere tables (train.brdf_validation.SphereRenderer): seconds to
+"""Benchmark of sa-validate's sphere tables (train.brdf_validation.validation.SphereRenderer): seconds to
 render the diffuse and specular images of a configuration's lightings. Prints JSON.
 
     python benchmarks/sphere_tables.py [--config small] [--levels 29] [--probes probes]
@@ -17,7 +17,7 @@ import click
 import torch
 
 from render.common.probes import find_probes
-from train.brdf_validation import CONFIGURATIONS, ValidationConfig, make_renderer
+from train.brdf_validation.validation import CONFIGURATIONS, ValidationConfig, make_renderer
 
 REPO = Path(__file__).resolve().parent.parent
 

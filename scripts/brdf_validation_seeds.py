@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from render.common.atomic_files import atomic_path  # noqa: E402
-from train.brdf_validation import PAPER_MSE, PATTERNS  # noqa: E402
+from train.brdf_validation.validation import PAPER_MSE, PATTERNS  # noqa: E402
 
 
 def _spread(values):

@@ -7,7 +7,7 @@
 import click
 
 from render.common.errors import InputError
-from train.model_files import load_network, save_model
+from train.networks.model_files import load_network, save_model
 
 
 @click.command()

@@ -60,7 +60,7 @@ for class in "$@"; do
     run="$OUT_DIR/runs/$class"  # each stage (OUT_DIR) has its own run folders
     init="$INIT_DIR/svbrdf-$class.safetensors"
     albedo_network=${ALBEDO_NETWORK:-$("$BIN/python" -c "import sys
-from train.model_files import shipped_network_config
+from train.networks.model_files import shipped_network_config
 print(shipped_network_config(sys.argv[1]).albedo_network)" "$init")}
     "$BIN/sa-train" --init-from "$init" --train-networks "$NETWORK" \
         --homogeneous-pooling "$POOLING" --albedo-network "$albedo_network" \

@@ -1,5 +1,5 @@
 """Fit the AlbedoCorrection of a photo-affine model file and write the model with it
-(train.albedo_correction; models/README.md, "The albedo correction").
+(train.fits.albedo_correction; models/README.md, "The albedo correction").
 
     .venv/bin/python scripts/fit_albedo_correction.py MODEL.safetensors OUT.safetensors \
         --maps MAPS --probes PROBES_TRAIN --work WORK
@@ -15,8 +15,8 @@ import json
 import click
 
 from render.common.errors import InputError
-from train.albedo_correction import FitConfig, fit
-from train.model_files import fit_part_onto_model
+from train.fits.albedo_correction import FitConfig, fit
+from train.fits.part_fitting import fit_part_onto_model
 
 
 @click.command()

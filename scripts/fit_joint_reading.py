@@ -1,5 +1,5 @@
 """Fit the JointReading head of a model file and write the model with it
-(train.joint_reading; models/README.md, "The joint reading").
+(train.fits.joint_reading; models/README.md, "The joint reading").
 
     .venv/bin/python scripts/fit_joint_reading.py MODEL.safetensors OUT.safetensors \
         --maps MAPS --probes PROBES_TRAIN --work WORK
@@ -16,8 +16,8 @@ import click
 import torch
 
 from render.common.errors import InputError
-from train.joint_reading import FitConfig, fit
-from train.model_files import fit_part_onto_model
+from train.fits.joint_reading import FitConfig, fit
+from train.fits.part_fitting import fit_part_onto_model
 
 
 @click.command()

@@ -1,8 +1,8 @@
 """Measure what each shipped network costs on each material route: the costs the material
-classifier's router weighs (train.network_choice.ClassRouter).
+classifier's router weighs (train.estimation.network_choice.ClassRouter).
 
 For every route (wood, plastic, metal, general) and every shipped network, the mean relit RMSE
-(sa-evaluate's measure, train.estimate_evaluation) of that network's estimates of ``--samples``
+(sa-evaluate's measure, train.evaluation.estimate_evaluation) of that network's estimates of ``--samples``
 photos rendered by the torch renderer from the route's validation sets (``--val ROUTE=FOLDER``)
 under ``--probes``. Prints the cost matrix as JSON (rows: the photo's route, columns: the
 network) and writes it to ``--out``, the file ``train_material_classifier.py --costs`` embeds
@@ -19,10 +19,10 @@ from pathlib import Path
 import click
 
 from render.common.atomic_files import atomic_path
-from train.estimate_evaluation import EvaluationConfig, run
-from train.material_classifier import ROUTES, route_folders
-from train.model_files import load_network, shipped_model_path
-from train.network_choice import FixedNetwork
+from train.estimation.material_classifier import ROUTES, route_folders
+from train.estimation.network_choice import FixedNetwork
+from train.evaluation.estimate_evaluation import EvaluationConfig, run
+from train.networks.model_files import load_network, shipped_model_path
 
 
 @click.command()

@@ -1,4 +1,4 @@
-"""Write a model file with view averaging on (train.networks.NetworkConfig.view_averaging: the
+"""Write a model file with view averaging on (train.networks.svbrdf_net.NetworkConfig.view_averaging: the
 joint reading head's readings averaged over the photo's 8 dihedral views); the weights are
 kept as they are.
 
@@ -10,7 +10,7 @@ import dataclasses
 import click
 
 from render.common.errors import InputError
-from train.model_files import FORMAT, load_network, model_metadata, save_model
+from train.networks.model_files import FORMAT, load_network, model_metadata, save_model
 
 
 @click.command()

@@ -58,11 +58,16 @@ from render.common.errors import InputError  # noqa: E402
 from render.common.exposure import expose  # noqa: E402
 from render.common.probes import find_probes, load_probe  # noqa: E402
 from render.torch_renderer.renderer import ProbeBank, render  # noqa: E402
-from train.estimate_evaluation import (EvaluationConfig, held_out_probes,  # noqa: E402
-                                       naive_estimate, novel_lightings, relit_rmse,
-                                       test_samples)
-from train.losses import maps_at_size  # noqa: E402
-from train.photos import PHOTO_GAMMA  # noqa: E402
+from train.data.photos import PHOTO_GAMMA  # noqa: E402
+from train.evaluation.estimate_evaluation import (  # noqa: E402
+    EvaluationConfig,
+    held_out_probes,
+    naive_estimate,
+    novel_lightings,
+    relit_rmse,
+    test_samples,
+)
+from train.training.losses import maps_at_size  # noqa: E402
 
 ALPHAS = (0.02, 0.035, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3, 0.5, 0.75, 1.0)
 """Ward alphas of the alternative lobes (those outside the test data's own range are left out)."""

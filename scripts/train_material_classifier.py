@@ -1,7 +1,7 @@
-"""Train the material classifier (train.material_classifier) and measure it on held-out data.
+"""Train the material classifier (train.estimation.material_classifier) and measure it on held-out data.
 
 Each step renders a minibatch of ``--per-route`` labeled photos of every route with the torch
-renderer (train.map_samples.MapSampler: a random 256 px crop of a random material of the
+renderer (train.data.map_samples.MapSampler: a random 256 px crop of a random material of the
 route's folder, at a random scale of 1 or 2, under a random probe of ``--probes`` at a random
 rotation, auto-exposed), and takes one Adam step of the cross entropy. The random choices of
 step k come from a generator seeded by (seed, k), and a checkpoint (``RUN/checkpoint.pt``,
@@ -25,7 +25,7 @@ about a factor W, as a prior would.
         --probes PROBES_TRAIN --run RUN --steps 1000 --costs costs.json \
         --export models/material-classifier.safetensors
 
-``--plastic-or-metal`` trains the plastic-or-metal network instead (train.material_classifier):
+``--plastic-or-metal`` trains the plastic-or-metal network instead (train.estimation.material_classifier):
 photos of the plastic and metal routes only (``--maps`` names just those two), and ``--export``
 writes the classifier file ``--attach-to`` with this network attached (its first network and
 costs as they were):
@@ -52,10 +52,16 @@ from render.common.atomic_files import atomic_path  # noqa: E402
 from render.common.errors import InputError  # noqa: E402
 from render.common.probes import find_probes, load_probe  # noqa: E402
 from render.torch_renderer.renderer import ProbeBank  # noqa: E402
-from train.map_samples import MapSampler  # noqa: E402
-from train.material_classifier import (FORMAT, ROUTES, MaterialClassifier,  # noqa: E402
-                                       load_classifier, route_folders, save_classifier)
-from train.model_files import model_metadata  # noqa: E402
+from train.data.map_samples import MapSampler  # noqa: E402
+from train.estimation.material_classifier import (  # noqa: E402
+    FORMAT,
+    ROUTES,
+    MaterialClassifier,
+    load_classifier,
+    route_folders,
+    save_classifier,
+)
+from train.networks.model_files import model_metadata  # noqa: E402
 
 PHOTO_SIZE = 256
 RENDER_SIZE = 512

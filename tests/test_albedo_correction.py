@@ -1,5 +1,5 @@
-"""The albedo correction (train.networks.AlbedoCorrection), its fit
-(train.albedo_correction) and its full-resolution maps (train.full_resolution)."""
+"""The albedo correction (train.networks.svbrdf_net.AlbedoCorrection), its fit
+(train.fits.albedo_correction) and its full-resolution maps (train.estimation.full_resolution)."""
 
 import copy
 import dataclasses
@@ -16,12 +16,12 @@ from render.common.images import resize
 from render.common.probes import find_probes, load_probe
 from render.torch_renderer.renderer import ProbeBank
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES
-from train.albedo_correction import FitConfig, albedo_rmse, check_errors, fit
-from train.full_resolution import full_resolution_maps
-from train.model_files import (FORMAT, fit_part_onto_model, load_network, model_metadata,
-                               save_model)
-from train.networks import AlbedoCorrection, NetworkConfig, SVBRDFNet
-from train.photos import read_linear_photo
+from train.data.photos import read_linear_photo
+from train.estimation.full_resolution import full_resolution_maps
+from train.fits.albedo_correction import FitConfig, albedo_rmse, check_errors, fit
+from train.fits.part_fitting import fit_part_onto_model
+from train.networks.model_files import FORMAT, load_network, model_metadata, save_model
+from train.networks.svbrdf_net import AlbedoCorrection, NetworkConfig, SVBRDFNet
 
 BUNDLED_PHOTO = "scenes/photos/brick-reference-01.jpg"
 TINY_CORRECTED = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32,

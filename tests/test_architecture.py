@@ -1,4 +1,5 @@
-"""The module graph of render/ and train/ (docs/architecture.md) has no import cycle.
+"""The module graph of render/ and train/ (docs/architecture.md): no import cycle, and
+dependencies between sub-packages pointing one way, in the documented order.
 
 Imports are read from the source with ``ast``, those inside functions included (a lazy import
 still makes a cycle, only a later one), so the test needs neither Mitsuba nor Ray.
@@ -9,6 +10,16 @@ import ast
 from tests.conftest import REPO
 
 PACKAGES = ("render", "train")
+ORDER = {
+    "render": ("common", "mitsuba_reference", "materials", ("dataset", "torch_renderer"), "cli"),
+    "train": ("networks", "data", "training", "fits", "estimation", "evaluation",
+              "brdf_validation", "cli"),
+}
+"""Each package's sub-packages in dependency order (docs/architecture.md): a module may import
+only from its own sub-package and those before it (a tuple is one rank)."""
+TRAIN_USES_RENDER = ("render.common", "render.materials", "render.torch_renderer",
+                     "render.mitsuba_reference.scene_file")
+"""What train/ may import of render/ (scene_file writes a scene without importing Mitsuba)."""
 
 
 def project_modules():
@@ -80,9 +91,35 @@ def find_cycle(graph):
     return None
 
 
+def rank(module):
+    """(package, rank of the module's sub-package in ORDER); the package's own modules (its
+    ``__init__``) rank first."""
+    package, _, rest = module.partition(".")
+    sub = rest.partition(".")[0]
+    for position, entry in enumerate(ORDER[package]):
+        if sub == entry or (isinstance(entry, tuple) and sub in entry):
+            return package, position
+    assert not sub, f"{module}: sub-package '{sub}' is not in ORDER (tests/test_architecture.py)"
+    return package, -1
+
+
+def order_violations(graph):
+    """'a -> b' for each import against ORDER or TRAIN_USES_RENDER."""
+    violations = []
+    for module, targets in graph.items():
+        for target in targets:
+            (package, position), (target_package, target_position) = rank(module), rank(target)
+            if package == target_package:
+                if target_position > position:
+                    violations.append(f"{module} -> {target}")
+            elif package == "render" or not target.startswith(TRAIN_USES_RENDER):
+                violations.append(f"{module} -> {target}")
+    return sorted(violations)
+
+
 def test_the_graph_sees_package_and_lazy_imports():
     graph = import_graph()
-    assert "render.common.errors" in graph["train.checkpoints"]
+    assert "render.common.errors" in graph["train.networks.checkpoints"]
     # render-dataset --ray: a function-level import of the Ray runner
     assert "render.dataset.ray_runner" in graph["render.dataset.generator"]
     # ``from render.mitsuba_reference import ward_bsdf`` names a module
@@ -98,3 +135,19 @@ def test_find_cycle_reports_the_cycle():
 def test_no_import_cycle_between_project_modules():
     cycle = find_cycle(import_graph())
     assert cycle is None, "import cycle: " + " -> ".join(cycle)
+
+
+def test_order_violations_are_found():
+    graph = {"train.data.photos": {"train.training.losses"},
+             "train.training.losses": {"train.data.photos", "render.dataset.tasks"},
+             "render.common.images": {"train.networks.model_files"}}
+    assert order_violations(graph) == ["render.common.images -> train.networks.model_files",
+                                       "train.data.photos -> train.training.losses",
+                                       "train.training.losses -> render.dataset.tasks"]
+
+
+def test_every_sub_package_is_in_the_order_and_dependencies_point_one_way():
+    graph = import_graph()
+    for module in graph:
+        rank(module)
+    assert order_violations(graph) == []

@@ -13,26 +13,32 @@ from render.common.exposure import expose
 from render.common.probes import find_probes, load_probe
 from render.torch_renderer.renderer import ProbeBank, render, sphere_normals
 from tests.conftest import BUNDLED_PROBES
-from train import brdf_space
-from train.brdf_validation import (CONFIGURATIONS, SphereRenderer, ValidationConfig,
-                                   from_targets, make_renderer, ratio_table)
+from train.brdf_validation import search_space
+from train.brdf_validation.validation import (
+    CONFIGURATIONS,
+    SphereRenderer,
+    ValidationConfig,
+    from_targets,
+    make_renderer,
+    ratio_table,
+)
 from train.cli.sa_validate import main
 
 
 def test_search_space_and_patterns():
-    train, test = brdf_space.training_brdfs(), brdf_space.test_brdfs()
+    train, test = search_space.training_brdfs(), search_space.test_brdfs()
     assert train.shape == (1500, 3) and test.shape == (9 * 9 * 14, 3)
     assert np.isclose(train[:, 2].min(), 0.02) and np.isclose(train[:, 0].max(), 1.0)
     assert not (set(map(tuple, test.round(6))) & set(map(tuple, train.round(6))))
-    counts = {p: brdf_space.labeled_mask(p).sum() for p in
+    counts = {p: search_space.labeled_mask(p).sum() for p in
               ("dense", "5x5x7", "3x3x5", "2x2x2", "random-12.5", "random-3.7")}
     assert counts == {"dense": 1500, "5x5x7": 175, "3x3x5": 45, "2x2x2": 8,
                       "random-12.5": 188, "random-3.7": 56}
-    corners = train[brdf_space.labeled_mask("2x2x2")]
+    corners = train[search_space.labeled_mask("2x2x2")]
     assert set(np.round(corners[:, 2], 6)) == {0.02, 1.0}  # the extremes of each axis
     with pytest.raises(ValueError, match="unknown sampling pattern"):
-        brdf_space.labeled_mask("half")
-    round_trip = from_targets(brdf_space.targets(train))
+        search_space.labeled_mask("half")
+    round_trip = from_targets(search_space.targets(train))
     assert np.allclose(round_trip[:, 0] / round_trip[:, 1], train[:, 0] / train[:, 1])
     assert np.allclose(round_trip[:, 2], train[:, 2])
 
@@ -90,10 +96,10 @@ def test_pipeline_end_to_end_at_toy_size(tmp_path):
 
 
 def test_ratio_table_at_toy_size(tmp_path):
-    labeled, unlabeled = brdf_space.random_split(20, 50, seed=3)
+    labeled, unlabeled = search_space.random_split(20, 50, seed=3)
     assert labeled.sum() == 300 and unlabeled.sum() == 750 and not (labeled & unlabeled).any()
     with pytest.raises(ValueError, match="more than 100"):
-        brdf_space.random_split(60, 50)
+        search_space.random_split(60, 50)
     cfg = ValidationConfig(probes=str(BUNDLED_PROBES), out=str(tmp_path),
                            **CONFIGURATIONS["toy"])
     table = ratio_table(cfg, make_renderer(cfg), (50, 100), (20, 50))

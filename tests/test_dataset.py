@@ -171,7 +171,7 @@ def test_relative_labels():
 
 def test_training_reader_does_not_import_mitsuba(reference_dataset):
     out, index = reference_dataset
-    code = ("import sys; from train.labeled_dataset import LabeledDataset; "
+    code = ("import sys; from train.data.labeled_dataset import LabeledDataset; "
             f"d = LabeledDataset({str(out)!r}, 'test'); item = d[0]; "
             "assert item['image'].shape == (3, 24, 24), item['image'].shape; "
             "assert 'mitsuba' not in sys.modules and 'drjit' not in sys.modules; print(len(d))")

@@ -13,20 +13,34 @@ from click.testing import CliRunner
 from safetensors.torch import save_file
 
 from render.common.errors import InputError
+from render.common.exposure import expose
 from render.common.probes import find_probes, load_probe
 from render.torch_renderer.renderer import ProbeBank
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO
-from train.checkpoints import FORMAT as CHECKPOINT_FORMAT
 from train.cli.sa_estimate import main as sa_estimate
 from train.cli.sa_evaluate import main as sa_evaluate
-from render.common.exposure import expose
-from train.estimate_evaluation import (ERRORS, NAIVE_ROUGHNESS, NAIVE_SPECULAR, SWAPS,
-                                       naive_estimate, relit_rmse, relit_under, sample_errors,
-                                       summary)
-from train.map_samples import MapSampler
-from train.model_files import (FORMAT as MODEL_FORMAT, SHIPPED, load_network, model_metadata,
-                               save_model, shipped_model_path)
-from train.networks import NetworkConfig, SVBRDFNet
+from train.data.map_samples import MapSampler
+from train.evaluation.estimate_evaluation import (
+    ERRORS,
+    NAIVE_ROUGHNESS,
+    NAIVE_SPECULAR,
+    SWAPS,
+    naive_estimate,
+    relit_rmse,
+    relit_under,
+    sample_errors,
+    summary,
+)
+from train.networks.checkpoints import FORMAT as CHECKPOINT_FORMAT
+from train.networks.model_files import FORMAT as MODEL_FORMAT
+from train.networks.model_files import (
+    SHIPPED,
+    load_network,
+    model_metadata,
+    save_model,
+    shipped_model_path,
+)
+from train.networks.svbrdf_net import NetworkConfig, SVBRDFNet
 
 TINY = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32)
 

@@ -23,7 +23,7 @@ from PIL import Image
 from tests.conftest import REPO
 from tests.reliability_cases import FAULT_COMMANDS as COMMANDS
 from tests.reliability_cases import FILE_SIZE_LIMITS, KILLS
-from train.checkpoints import checkpoint_files, load_checkpoint
+from train.networks.checkpoints import checkpoint_files, load_checkpoint
 
 pytestmark = pytest.mark.slow
 UNCOMPARED = {"ms_per_step", "seconds", "out"}

@@ -1,4 +1,4 @@
-"""Full-resolution maps (train.full_resolution): tiles cover the photo, no seams where tiles
+"""Full-resolution maps (train.estimation.full_resolution): tiles cover the photo, no seams where tiles
 meet, and agreement with the network's input-size estimate."""
 
 import numpy as np
@@ -8,11 +8,11 @@ from torch.nn import functional
 
 from render.common.images import resize
 from tests.conftest import write_png
-from train.estimate import estimate
-from train.full_resolution import full_resolution_maps, tile_starts
-from train.model_files import load_network, shipped_model_path
-from train.networks import NetworkConfig, SVBRDFNet, photo_affine_albedo
-from train.photos import centre_square, read_linear_photo, read_photo
+from train.data.photos import centre_square, read_linear_photo, read_photo
+from train.estimation.estimator import estimate
+from train.estimation.full_resolution import full_resolution_maps, tile_starts
+from train.networks.model_files import load_network, shipped_model_path
+from train.networks.svbrdf_net import NetworkConfig, SVBRDFNet, photo_affine_albedo
 
 BUNDLED_PHOTO = "scenes/photos/brick-reference-01.jpg"
 

@@ -1,4 +1,4 @@
-"""The joint reading head (train.networks.JointReading) and its fit (train.joint_reading)."""
+"""The joint reading head (train.networks.svbrdf_net.JointReading) and its fit (train.fits.joint_reading)."""
 
 import dataclasses
 import math
@@ -9,11 +9,24 @@ import torch
 from render.common.probes import find_probes, load_probe
 from render.torch_renderer.renderer import ProbeBank, render
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES
-from train.joint_reading import (ALPHA_GRID, FitConfig, fit, flat_radiance_tables,
-                                 relit_errors, specular_at)
-from train.model_files import load_network, model_metadata, FORMAT, save_model
-from train.networks import (PHOTO_QUANTILES, JointReading, NetworkConfig, SVBRDFNet,
-                            dihedral_views, photo_affine_albedo, photo_statistics)
+from train.fits.joint_reading import (
+    ALPHA_GRID,
+    FitConfig,
+    fit,
+    flat_radiance_tables,
+    relit_errors,
+    specular_at,
+)
+from train.networks.model_files import FORMAT, load_network, model_metadata, save_model
+from train.networks.svbrdf_net import (
+    PHOTO_QUANTILES,
+    JointReading,
+    NetworkConfig,
+    SVBRDFNet,
+    dihedral_views,
+    photo_affine_albedo,
+    photo_statistics,
+)
 
 TINY_AFFINE = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32,
                             albedo_network="photo-affine")

@@ -16,12 +16,18 @@ from render.materials.reduced_svbrdf import write_material
 from render.torch_renderer.renderer import ProbeBank
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO
 from train.cli.sa_estimate import main as sa_estimate
-from train.map_samples import MapSampler
-from train.material_classifier import (FORMAT, ROUTES, MaterialClassifier, cheapest_route,
-                                       load_classifier, save_classifier,
-                                       split_plastic_or_metal)
-from train.model_files import model_metadata, shipped_model_path
-from train.network_choice import CLASSIFIER_FILE, ClassRouter, network_choice
+from train.data.map_samples import MapSampler
+from train.estimation.material_classifier import (
+    FORMAT,
+    ROUTES,
+    MaterialClassifier,
+    cheapest_route,
+    load_classifier,
+    save_classifier,
+    split_plastic_or_metal,
+)
+from train.estimation.network_choice import ClassRouter, network_choice, shipped_classifier_path
+from train.networks.model_files import model_metadata, shipped_model_path
 
 
 def sure_of(route, costs=None):
@@ -141,7 +147,7 @@ def test_the_shipped_classifier_routes_its_bundled_training_sets(material, route
     bank = ProbeBank([load_probe(path).radiance for path in find_probes(BUNDLED_PROBES)])
     sampler = MapSampler(tmp_path, bank, range(len(bank)), 256, 512)
     photos = sampler.batch(np.random.default_rng(0), 8)["image"]
-    answers = load_classifier(CLASSIFIER_FILE).probabilities(photos).argmax(1)
+    answers = load_classifier(shipped_classifier_path()).probabilities(photos).argmax(1)
     assert (answers == ROUTES.index(route)).sum() >= 5, answers.tolist()
 
 
@@ -156,7 +162,7 @@ def test_the_shipped_plastic_or_metal_network_tells_the_two_apart(material_class
     bank = ProbeBank([load_probe(path).radiance for path in find_probes(BUNDLED_PROBES)])
     photos = MapSampler(tmp_path, bank, range(len(bank)), 256, 512).batch(
         np.random.default_rng(0), 16)["image"]
-    classifier = load_classifier(CLASSIFIER_FILE)
+    classifier = load_classifier(shipped_classifier_path())
     assert classifier.plastic_or_metal is not None
     both = classifier.plastic_or_metal.probabilities(photos)
     plastic, metal = ROUTES.index("plastic"), ROUTES.index("metal")

@@ -5,9 +5,17 @@ import dataclasses
 import pytest
 import torch
 
-from train.networks import (SMALL_CPU_CONFIG, HomogeneousNet, MapNet, NetworkConfig,
-                            PhotoAffineAlbedoNet, SVBRDFNet, decode_normal, photo_affine_albedo)
-from train.optimization import OptimizerConfig, inverse_decay, make_optimizer
+from train.networks.svbrdf_net import (
+    SMALL_CPU_CONFIG,
+    HomogeneousNet,
+    MapNet,
+    NetworkConfig,
+    PhotoAffineAlbedoNet,
+    SVBRDFNet,
+    decode_normal,
+    photo_affine_albedo,
+)
+from train.training.optimization import OptimizerConfig, inverse_decay, make_optimizer
 
 TINY = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32)
 

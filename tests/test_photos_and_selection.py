@@ -7,8 +7,8 @@ import pytest
 from render.common.errors import InputError
 from render.common.images import write_exr
 from tests.conftest import write_png
-from train.photos import read_photo
-from train.unlabeled_selection import color_bins, select_matching
+from train.data.photos import read_photo
+from train.data.unlabeled_selection import color_bins, select_matching
 
 
 def test_ldr_photo_is_linearized_cropped_and_resized(tmp_path):

@@ -5,6 +5,7 @@ import dataclasses
 import json
 import subprocess
 import sys
+
 import numpy as np
 import pytest
 import torch
@@ -17,18 +18,18 @@ from render.materials.reduced_svbrdf import find_materials, load_material, resam
 from render.mitsuba_reference.scene import PlanarSampleRenderer
 from render.torch_renderer.renderer import ProbeBank, render
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO, write_png
-from train.checkpoints import checkpoint_files, load_checkpoint
 from train.cli.sa_estimate import main as sa_estimate
 from train.cli.sa_evaluate import main as sa_evaluate
 from train.cli.sa_train import main as sa_train
-from train.estimate_evaluation import relit_rmse, relit_under
-from train.losses import LABELS, RELIT_LOSS_FORMS, losses, relit_loss
-from train.map_samples import MapSampler
-from train.model_files import load_network, save_model
-from train.networks import NetworkConfig, SVBRDFNet
-from train.schedule import LABELED, SELF_AUGMENTED, Schedule
-from train.self_augmentation import random_lightings, self_augmented_batch
-from train.trainer import Run, TrainConfig
+from train.data.map_samples import MapSampler
+from train.evaluation.estimate_evaluation import relit_rmse, relit_under
+from train.networks.checkpoints import checkpoint_files, load_checkpoint
+from train.networks.model_files import load_network, save_model
+from train.networks.svbrdf_net import NetworkConfig, SVBRDFNet
+from train.training.losses import LABELS, RELIT_LOSS_FORMS, losses, relit_loss
+from train.training.schedule import LABELED, SELF_AUGMENTED, Schedule
+from train.training.self_augmentation import random_lightings, self_augmented_batch
+from train.training.trainer import Run, TrainConfig
 
 TINY_NETWORK = ["--network", "small", "--input-size", "32", "--levels", "3"]
 
@@ -526,7 +527,7 @@ def test_relit_loss_is_zero_for_the_truth_and_pulls_specular_and_roughness_towar
 def test_the_rmse_relit_loss_is_the_evaluations_relit_error_averaged_over_samples():
     """Each sample's estimate a darker specular albedo than its truth (nothing of its render
     passes 1, where the loss's clamp leaks): the loss is the mean of sa-evaluate's relit RMSE
-    (train.estimate_evaluation.relit_rmse) of the samples."""
+    (train.evaluation.estimate_evaluation.relit_rmse) of the samples."""
     bank = ProbeBank([load_probe(path).radiance for path in find_probes(BUNDLED_PROBES)])
     truth = MapSampler(BUNDLED_MATERIALS, bank, [0, 1, 2], size=16, render_size=32).batch(
         np.random.default_rng(8), 3)

@@ -11,9 +11,10 @@ from pathlib import Path
 import numpy as np
 
 from render.common.images import write_exr
+from render.common.package_data import SCENES, installed_file
 from render.mitsuba_reference.loading import load_mitsuba
 
-SCENE_FILE = Path(__file__).resolve().parents[2] / "scenes" / "planar_sample.xml"
+SCENE_FILE = installed_file(SCENES, "planar_sample.xml")
 DEFAULT_SAMPLER = "multijitter"
 EMITTER_ONLY_ROUGHNESS = 0.22
 """From this Ward alpha up, each sample takes two probe (emitter) samples and no BSDF sample;

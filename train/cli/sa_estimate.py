@@ -1,14 +1,16 @@
-"""Command line of ``sa-estimate``: parse options, build an EstimateConfig, call run(cfg)."""
+"""Command line of ``sa-estimate``: parse options, build an EstimateConfig and an Estimator,
+call run(cfg, estimator)."""
 
 import json
 
 import click
 
 from render.common.errors import InputError
-from train.estimate import DEFAULT_PROBES, EstimateConfig, run
-from train.full_resolution import MAX_SIDE
-from train.model_files import SHIPPED
-from train.network_choice import AUTO, network_choice
+from train.estimation.batch import DEFAULT_PROBES, EstimateConfig, run
+from train.estimation.estimator import Estimator
+from train.estimation.full_resolution import MAX_SIDE
+from train.estimation.network_choice import AUTO
+from train.networks.model_files import SHIPPED
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -27,11 +29,11 @@ from train.network_choice import AUTO, network_choice
 @click.option("--max-side", type=int, default=MAX_SIDE, show_default=True,
               help="Longest side of the albedo and normal maps (px).")
 @click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
-def main(model, material_class, probes, **options):
+def main(photos, model, material_class, out, probes, max_side, device):
     """Estimate the reduced SVBRDF of each PHOTO."""
     try:
-        cfg = EstimateConfig(probes=tuple(probes) or DEFAULT_PROBES, **options)
-        reports = run(cfg, network_choice(model, material_class, cfg.device))
+        cfg = EstimateConfig(photos, out, tuple(probes) or DEFAULT_PROBES)
+        reports = run(cfg, Estimator(model, material_class, device, max_side))
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
     for report in reports:

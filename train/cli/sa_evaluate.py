@@ -5,9 +5,9 @@ import json
 import click
 
 from render.common.errors import InputError
-from train.estimate_evaluation import EvaluationConfig, run
-from train.model_files import SHIPPED
-from train.network_choice import AUTO, network_choice
+from train.estimation.network_choice import AUTO, network_choice
+from train.evaluation.estimate_evaluation import EvaluationConfig, run
+from train.networks.model_files import SHIPPED
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})

@@ -8,11 +8,17 @@ import os
 import click
 
 from render.common.errors import InputError
-from train.losses import ALBEDO_LOSSES, RELIT_LOSS_FORMS
-from train.networks import (ALBEDO_NETWORKS, COMPACT_CONFIG, HOMOGENEOUS_POOLINGS, PARTS,
-                            SMALL_CPU_CONFIG, NetworkConfig)
-from train.optimization import OptimizerConfig
-from train.trainer import RELIT_PARTNERS, TrainConfig, run
+from train.networks.svbrdf_net import (
+    ALBEDO_NETWORKS,
+    COMPACT_CONFIG,
+    HOMOGENEOUS_POOLINGS,
+    PARTS,
+    SMALL_CPU_CONFIG,
+    NetworkConfig,
+)
+from train.training.losses import ALBEDO_LOSSES, RELIT_LOSS_FORMS
+from train.training.optimization import OptimizerConfig
+from train.training.trainer import RELIT_PARTNERS, TrainConfig, run
 
 NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_CPU_CONFIG}
 

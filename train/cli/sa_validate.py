@@ -9,7 +9,13 @@ from pathlib import Path
 import click
 
 from render.common.errors import InputError
-from train.brdf_validation import CONFIGURATIONS, PATTERNS, ValidationConfig, ratio_table, run
+from train.brdf_validation.validation import (
+    CONFIGURATIONS,
+    PATTERNS,
+    ValidationConfig,
+    ratio_table,
+    run,
+)
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})

@@ -35,7 +35,7 @@ All three networks share the structure of their analysis sub-network: ``levels``
   flat photo's reflection is an offset that a lighter albedo explains as well); beside a
   map albedo network the head corrects the homogeneous network's readings for the relit
   error they cause (a roughness read too low costs more than one read too high). The head is
-  fit after the networks, on the evaluation's relit error (train.joint_reading), and starts
+  fit after the networks, on the evaluation's relit error (train.fits.joint_reading), and starts
   as the identity (its last layer zero). With ``view_averaging``, its readings are averaged
   over the photo's 8 dihedral views.
 - ``AlbedoCorrection`` (``albedo_correction=True``, beside a photo-affine albedo network): a
@@ -43,7 +43,7 @@ All three networks share the structure of their analysis sub-network: ``levels``
   read from the albedo's neighbourhood (about 33 px) and its mean features over the photo.
   The photo-affine albedo keeps what the photo shows beside the albedo (shading of relief,
   glints); the correction is fit after the other networks, on the albedo's error
-  (train.albedo_correction), and starts as the identity (its last layer zero).
+  (train.fits.albedo_correction), and starts as the identity (its last layer zero).
 
 Input: (B, 3, S, S) photos, linear RGB in [0, 1] (docs/conventions.md), S divisible by
 2^levels. Outputs follow the label conventions of docs/dataset-format.md.
@@ -55,7 +55,6 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 from torch.nn import functional
-
 
 HOMOGENEOUS_POOLINGS = ("flatten", "mean")
 """How the homogeneous network reads its bottleneck (NetworkConfig.homogeneous_pooling)."""
@@ -150,7 +149,7 @@ class HomogeneousNet(nn.Module):
     """Image (B, in_channels, S, S) -> homogeneous parameters (B, outputs).
 
     In SVBRDF-net: a photo -> log relative specular albedo (3) and log roughness (1). In
-    BRDF-net (the paper's validation): a monochrome sphere -> 2 values (train.brdf_validation).
+    BRDF-net (the paper's validation): a monochrome sphere -> 2 values (train.brdf_validation.validation).
     """
 
     def __init__(self, config, in_channels=3, outputs=4):
@@ -209,7 +208,7 @@ class PhotoAffineAlbedoNet(nn.Module):
     def forward(self, image, reference=None):
         """The albedo of ``image``; with ``reference`` (B, 3, S, S), the reflection's share
         is predicted from it instead, and ``image`` may have any size (a full-resolution
-        photo mapped as its network-size view is: train.full_resolution)."""
+        photo mapped as its network-size view is: train.estimation.full_resolution)."""
         return photo_affine_albedo(self.affine(image if reference is None else reference),
                                    image)
 
@@ -297,8 +296,8 @@ class AlbedoCorrection(nn.Module):
     beside each pixel's features, their mean over the image (what kind of material the photo
     shows); a 1x1 convolution mixes the two and another gives the log gain, clamped to
     [-4, 4]. Its last layer starts at zero: a fresh correction is the identity. It is fit at
-    the network's input scale (train.albedo_correction): a full-resolution albedo takes the
-    gain read at that scale (train.full_resolution)."""
+    the network's input scale (train.fits.albedo_correction): a full-resolution albedo takes the
+    gain read at that scale (train.estimation.full_resolution)."""
 
     def __init__(self):
         super().__init__()
@@ -410,8 +409,24 @@ class SVBRDFNet(nn.Module):
         """The photo-affine albedo (B, 3, H, W) of ``image`` (any size) with the reflection
         share read from ``reference`` (B, 3, S, S), its network-size view; through the
         JointReading head when the network has one. Without an AlbedoCorrection (which
-        train.full_resolution applies at the network's scale)."""
+        train.estimation.full_resolution applies at the network's scale)."""
         return photo_affine_albedo(self.reflection_logit(reference), image)
+
+    def full_resolution_albedo(self, photo, reference, overview):
+        """The photo-affine albedo (1, 3, H, W) of ``photo`` (1, 3, H, W) at any resolution:
+        the reflection share read from ``reference`` (1, 3, S, S), the photo's network-size
+        view, once for both ``photo`` and ``overview`` (the photo at the network's scale);
+        with an AlbedoCorrection, its log gain read on the overview's photo-affine albedo
+        (the scale it was fit at), upsampled bilinearly to the photo's size, multiplies the
+        albedo (train.estimation.full_resolution)."""
+        logit = self.reflection_logit(reference)
+        albedo = photo_affine_albedo(logit, photo)
+        if self.config.albedo_correction:
+            log_gain = functional.interpolate(
+                self.correction.log_gain(photo_affine_albedo(logit, overview)),
+                size=albedo.shape[2:], mode="bilinear", align_corners=False)
+            albedo = apply_log_gain(albedo, log_gain)
+        return albedo
 
     def reflection_logit(self, reference):
         """(B, 1): the logit of the reflection's share of the photo-affine albedo, read from

@@ -1,6 +1,6 @@
 """Albedo and normal maps over the whole photo at its own resolution (``sa-estimate``'s maps).
 
-The network's estimate (train.estimate.estimate) sees the photo's centre square at S x S
+The network's estimate (train.estimation.estimator.estimate) sees the photo's centre square at S x S
 pixels (S, the network's input size), the scale it was trained on. The map networks are fully
 convolutional, so they can also run on other sizes; the maps here come from two runs:
 
@@ -18,7 +18,7 @@ convolutional, so they can also run on other sizes; the maps here come from two 
    overview's size and up is bilinear. So the maps, averaged down to the overview's size,
    agree with the overview.
 
-A photo-affine albedo network (train.networks.PhotoAffineAlbedoNet) needs none of this: its
+A photo-affine albedo network (train.networks.svbrdf_net.PhotoAffineAlbedoNet) needs none of this: its
 albedo is the photo less an offset, pixel by pixel, so the whole photo at output resolution
 loses the offset predicted for its network-size view (the centre square at S x S, as
 the estimate sees it); only the normals go through steps 1 to 3. Its AlbedoCorrection, where
@@ -42,9 +42,8 @@ import torch
 from torch.nn import functional
 
 from render.common.images import resize
-from train.networks import (PhotoAffineAlbedoNet, apply_log_gain, decode_normal,
-                            photo_affine_albedo)
-from train.photos import network_view
+from train.data.photos import network_view
+from train.networks.svbrdf_net import decode_normal
 
 MAX_SIDE = 2048
 """Default longest side of the full-resolution maps (px)."""
@@ -75,26 +74,17 @@ def full_resolution_maps(net, linear_photo, max_side=MAX_SIDE, overlap=TILE_OVER
 
 
 def photo_affine_albedo_map(net, photo):
-    """(1, 3, H, W): every pixel of the (H, W, 3) photo mapped by the photo-affine albedo
-    network's offset for the photo's network-size view (its centre square at S x S), through
-    the network's JointReading head when it has one, then its AlbedoCorrection's gain read on
-    the overview (module docstring)."""
+    """(1, 3, H, W): the (H, W, 3) photo's albedo by a photo-affine albedo network, its
+    offset read on the photo's network-size view (its centre square at S x S), its
+    AlbedoCorrection (where it has one) on the overview (SVBRDFNet.full_resolution_albedo)."""
     device = next(net.parameters()).device
 
     def tensor(array):
         return torch.as_tensor(np.ascontiguousarray(array.transpose(2, 0, 1)))[None].to(device)
 
     view = torch.as_tensor(network_view(photo, net.config.input_size))[None].to(device)
-    logit = net.reflection_logit(view)
-    albedo = photo_affine_albedo(logit, tensor(photo))
-    if net.config.albedo_correction:
-        overview = photo_affine_albedo(
-            logit, tensor(overview_photo(photo, net.config.input_size, 2 ** net.config.levels)))
-        log_gain = functional.interpolate(net.correction.log_gain(overview),
-                                          size=albedo.shape[2:], mode="bilinear",
-                                          align_corners=False)
-        albedo = apply_log_gain(albedo, log_gain)
-    return albedo.cpu()
+    overview = overview_photo(photo, net.config.input_size, 2 ** net.config.levels)
+    return net.full_resolution_albedo(tensor(photo), view, tensor(overview)).cpu()
 
 
 def overview_photo(photo, input_size, multiple):
@@ -113,7 +103,7 @@ def map_networks(net, photos):
     device = next(net.parameters()).device
     image = torch.as_tensor(np.ascontiguousarray(photos.transpose(0, 3, 1, 2))).to(device)
     maps = {"normal": decode_normal(net.normal(image)).cpu()}
-    if not isinstance(net.albedo, PhotoAffineAlbedoNet):
+    if net.config.albedo_network == "map":
         maps["albedo"] = net.albedo(image).cpu()
     return maps
 

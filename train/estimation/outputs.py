@@ -1,12 +1,10 @@
-"""``sa-estimate``: the reduced SVBRDF of photos, from a trained SVBRDF-net (a shipped network
-chosen per photo by the material classifier, a shipped class network, or a given model file:
-train.network_choice).
+"""What ``sa-estimate`` writes for its photos: a folder per photo and an HTML report.
 
-For each photo it writes a folder ``OUT/<photo stem>/`` holding:
+Per photo (``write_photo_folder``), into ``OUT/<photo stem>/``:
 
     albedo.exr, albedo.png     relative diffuse albedo (mean about 0.5) over the whole photo at
                                its resolution (the longer side at most ``max_side``;
-                               train.full_resolution): linear EXR, sRGB PNG
+                               train.estimation.full_resolution): linear EXR, sRGB PNG
     normal.exr, normal.png     unit normals at the same resolution, encoded (n + 1) / 2, OpenGL
                                convention
     material.json              relative specular albedo and Ward roughness, photo, model (and
@@ -17,22 +15,16 @@ For each photo it writes a folder ``OUT/<photo stem>/`` holding:
     material.glb               a plane (the photo's aspect) carrying the estimate as a glTF 2.0
                                metallic-roughness material (render.materials.gltf_file)
     photo.png                  the photo as read (linearized, then sRGB-encoded) at the maps' size
-    relit-<probe>.png          the estimate relit under each of ``probes`` (torch renderer,
+    relit-<probe>.png          the estimate relit under each probe (torch renderer,
                                auto-exposed, maps at the network's input scale)
     preview.png                photo | albedo | normals | relit under the first probe
 
-and ``OUT/report.html``, a page showing per photo the photo, the full-resolution maps, the
-parameters with units and color spaces, and the relit images. The specular albedo and roughness
-come from the photo's centre square read at the network's input size (train.photos.read_photo),
-the estimate that sa-evaluate measures. The command prints a JSON line per photo with the
-network chosen and the milliseconds it took (at input size, the classifier's choice included;
-full resolution). Every photo is read and checked
-before anything is written; an existing output folder is refused.
+and ``OUT/report.html`` (``write_report``), a page showing per photo the photo, the
+full-resolution maps, the parameters with units and color spaces, and the relit images. Every
+file appears under its final name only when whole (render.common.atomic_files).
 """
 
 import html
-import time
-from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import quote
 
@@ -42,93 +34,29 @@ from PIL import Image
 
 from render.common.atomic_files import atomic_path
 from render.common.color import normal_to_png_bytes, to_png_bytes
-from render.common.errors import InputError, require_output_folder
 from render.common.exposure import expose
 from render.common.images import resize, write_png
-from render.common.probes import load_probe
+from render.common.probes import Probe
 from render.materials.gltf_file import write_gltf_file
 from render.materials.reduced_svbrdf import ReducedSVBRDF, resample, write_material
 from render.mitsuba_reference.scene_file import write_scene_file
 from render.torch_renderer.renderer import ProbeBank, render
-from train.full_resolution import MAX_SIDE, full_resolution_maps
-from train.photos import read_linear_photo, read_photo
-
-REPO = Path(__file__).resolve().parent.parent
-DEFAULT_PROBES = tuple(str(REPO / "probes" / name) for name in
-                       ("park.exr", "env-studio.exr", "potsdamer_platz.exr"))
 
 
-def estimate(net, photo):
-    """(3, S, S) photo -> ReducedSVBRDF of relative quantities (name unset)."""
-    with torch.no_grad():
-        output = net(torch.as_tensor(photo)[None].to(next(net.parameters()).device))
-    albedo = output["albedo"][0].cpu().numpy().transpose(1, 2, 0)
-    normal = output["normal"][0].cpu().numpy().transpose(1, 2, 0)
-    specular = np.exp(output["log_specular"][0].cpu().numpy())
-    roughness = float(np.clip(np.exp(output["log_roughness"][0, 0].item()), 0.02, 1.0))
-    return ReducedSVBRDF("", np.ascontiguousarray(albedo), np.ascontiguousarray(normal),
-                         specular.astype(np.float32), roughness)
+def write_photo_folder(folder: Path, svbrdf: ReducedSVBRDF, linear_photo: np.ndarray,
+                       metadata: dict, short_side: int, probes: list[Probe], bank: ProbeBank,
+                       probe_paths: tuple) -> list[str]:
+    """Write the estimate ``svbrdf`` of the (H, W, 3) linear ``linear_photo`` into ``folder``
+    (the module docstring's files; ``metadata`` goes into material.json, ``probes[0]`` lights
+    the Mitsuba scene, ``bank`` holds ``probes`` for the relit images, named after
+    ``probe_paths``); returns the relit files' names."""
+    write_material(folder, svbrdf, metadata)
+    write_scene_file(folder, svbrdf, probes[0])
+    write_gltf_file(folder / "material.glb", svbrdf)
+    return write_pictures(folder, linear_photo, svbrdf, short_side, bank, probe_paths)
 
 
-@dataclass(frozen=True)
-class EstimateConfig:
-    photos: tuple
-    """Photo files (PNG, JPEG, TIFF, BMP, EXR, HDR), read by train.photos.read_photo."""
-    out: str
-    """Output folder: a folder per photo and report.html."""
-    probes: tuple = DEFAULT_PROBES
-    """HDR probes of the relit images; the first one also lights the preview and the Mitsuba
-    scene."""
-    max_side: int = MAX_SIDE
-    """Longest side of the albedo and normal maps (px); a smaller photo keeps its own size."""
-    device: str = "cpu"
-    """torch device of the network (cpu, cuda); previews render on the CPU."""
-
-
-def run(cfg, choice):
-    """Estimate the reduced SVBRDF of each photo of ``cfg`` with the network ``choice`` gives
-    it (train.network_choice) and write the outputs; returns a report per photo (its output
-    folder, the network and why, network milliseconds and parameters)."""
-    require_output_folder(cfg.out)
-    if cfg.max_side < 16:
-        raise ValueError(f"max_side {cfg.max_side} is below 16 px")
-    size = choice.input_size
-    inputs = [read_photo(path, size) for path in cfg.photos]  # checks every photo first
-    stems = [Path(path).stem for path in cfg.photos]
-    if len(set(stems)) != len(stems):
-        raise InputError(cfg.photos[0], "two photos share a file name stem (output folders)")
-    probes = [load_probe(path) for path in cfg.probes]
-    if len({Path(path).stem for path in cfg.probes}) != len(probes):
-        raise InputError(cfg.probes[0], "two probes share a file name stem (relit-<stem>.png)")
-    bank = ProbeBank([probe.radiance for probe in probes])  # relit images render on the CPU
-    reports = []
-    for path, photo, stem in zip(cfg.photos, inputs, stems):
-        linear_photo = read_linear_photo(path)  # read again: one whole photo in memory at a time
-        start = time.perf_counter()
-        net, chosen = choice.for_photo(photo)
-        svbrdf = estimate(net, photo)
-        milliseconds = 1000.0 * (time.perf_counter() - start)
-        start = time.perf_counter()
-        albedo, normal = full_resolution_maps(net, linear_photo, cfg.max_side)
-        full_milliseconds = 1000.0 * (time.perf_counter() - start)
-        full = ReducedSVBRDF(stem, albedo, normal, svbrdf.specular, svbrdf.roughness)
-        folder = Path(cfg.out) / stem
-        write_material(folder, full, {"photo": str(Path(path).resolve())} | chosen)
-        write_scene_file(folder, full, probes[0])
-        write_gltf_file(folder / "material.glb", full)
-        relit = _write_pictures(folder, linear_photo, full, size, bank, cfg.probes)
-        reports.append({"photo": str(path), "out": str(folder)} | chosen | {
-                        "network_ms": round(milliseconds, 1),
-                        "full_resolution_ms": round(full_milliseconds, 1),
-                        "map_size": [int(albedo.shape[1]), int(albedo.shape[0])],
-                        "relit": relit,
-                        "specular_albedo": svbrdf.specular.tolist(),
-                        "roughness": svbrdf.roughness})
-    _write_report(Path(cfg.out) / "report.html", reports)
-    return reports
-
-
-def _write_pictures(folder, linear_photo, svbrdf, short_side, bank, probe_paths):
+def write_pictures(folder, linear_photo, svbrdf, short_side, bank, probe_paths):
     """photo.png and the PNG maps at the maps' size, relit-<probe>.png per probe and
     preview.png at ``short_side`` (the network's input scale); returns the relit files'
     names."""
@@ -157,10 +85,10 @@ def _write_pictures(folder, linear_photo, svbrdf, short_side, bank, probe_paths)
     return names
 
 
-def _write_report(path, reports):
+def write_report(path, reports):
     """An HTML page: per photo, the photo, the full-resolution maps, the parameters with units
     and color spaces, and the relit images; every image has alt text."""
-    sections = "".join(_report_section(report) for report in reports)
+    sections = "".join(report_section(report) for report in reports)
     page = ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
             "<title>sa-estimate</title><style>body{font-family:sans-serif;margin:2em}"
             "figure{display:inline-block;max-width:360px;margin:0 1em 1em 0;vertical-align:top}"
@@ -173,7 +101,7 @@ def _write_report(path, reports):
         tmp.write_text(page)
 
 
-def _report_section(report):
+def report_section(report):
     name = html.escape(Path(report["photo"]).name)
     folder = quote(Path(report["out"]).name)
     width, height = report["map_size"]

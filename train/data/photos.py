@@ -13,7 +13,7 @@ The rule (the same for unlabeled training photos and for ``sa-estimate``):
 The result is (3, size, size) float32 linear RGB, the layout of the network input.
 
 ``read_linear_photo`` stops after step 2 (the whole photo, for full-resolution maps,
-train.full_resolution); ``network_view`` does steps 3 and 4 on pixels already read.
+train.estimation.full_resolution); ``network_view`` does steps 3 and 4 on pixels already read.
 ``read_photo`` and ``read_linear_photo`` refuse photos with a side under MIN_PHOTO_SIDE pixels
 or a side ratio above MAX_PHOTO_ASPECT (a panorama is not a photo of a flat sample, and the
 centre square would see a sliver of it); render.common.images.read_image refuses images above

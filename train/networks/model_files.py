@@ -1,17 +1,17 @@
 """Model files: the three forms a model is given in, each read without executing code.
 
 - a run folder of ``sa-train`` (its newest checkpoint);
-- an ``sa-train`` checkpoint (``.pt``), read by train.checkpoints with torch's safe loader
+- an ``sa-train`` checkpoint (``.pt``), read by train.networks.checkpoints with torch's safe loader
   (``weights_only=True``: tensors and plain containers only, a pickled callable is refused);
 - a shipped model (``.safetensors``): the network's weights in float16 and, in the file's
   metadata, ``format`` (FORMAT), ``network`` (the NetworkConfig as JSON) and free-form
   provenance (``class``, ``recipe``, ...). safetensors holds tensors and strings only.
 
-The shipped models live in ``models/`` of the repository (models/README.md is their card):
-``svbrdf-<name>.safetensors`` for each name of SHIPPED.
+The shipped models live in ``models/`` of the repository (models/README.md is their card),
+installed as the data package SHIPPED_MODELS: ``svbrdf-<name>.safetensors`` for each name of
+SHIPPED.
 """
 
-import dataclasses
 import json
 from pathlib import Path
 
@@ -20,13 +20,13 @@ from safetensors.torch import load_file, save_file
 
 from render.common.atomic_files import atomic_path
 from render.common.errors import InputError
-from render.common.probes import find_probes, load_probe
-from render.torch_renderer.renderer import ProbeBank
-from train.checkpoints import checkpoint_files, load_checkpoint, load_weights
-from train.networks import NetworkConfig, SVBRDFNet
+from render.common.package_data import installed_file
+from train.networks.checkpoints import checkpoint_files, load_checkpoint, load_weights
+from train.networks.svbrdf_net import NetworkConfig, SVBRDFNet
 
 FORMAT = "sa-svbrdf model 1"
-MODELS = Path(__file__).resolve().parent.parent / "models"
+SHIPPED_MODELS = "train.shipped_models"
+"""The data package of the shipped files: the repository's ``models/`` (pyproject.toml)."""
 SHIPPED = ("general", "wood", "plastic", "metal")
 """The general network (every class) and one network per class, as the paper trains."""
 
@@ -35,10 +35,7 @@ def shipped_model_path(name):
     """The file of shipped model ``name`` (one of SHIPPED)."""
     if name not in SHIPPED:
         raise ValueError(f"unknown model class '{name}' (expected one of {', '.join(SHIPPED)})")
-    path = MODELS / f"svbrdf-{name}.safetensors"
-    if not path.is_file():
-        raise InputError(path, "shipped model file missing from this installation")
-    return path
+    return installed_file(SHIPPED_MODELS, f"svbrdf-{name}.safetensors")
 
 
 def save_model(net, path, metadata):
@@ -122,22 +119,3 @@ def _shipped_network(path):
     net = SVBRDFNet(shipped_network_config(path))
     load_weights_file(net, path)
     return net
-
-
-def fit_part_onto_model(model, out, part, probes, fit, command):
-    """Fit a part that a model takes after training (``part``, its NetworkConfig flag:
-    ``joint_reading``, or ``albedo_correction`` of a photo-affine model) onto the model file
-    ``model`` and write the model with it to ``out``: ``fit(net, bank)`` (``bank``: the
-    probes of the folder ``probes``) fits the part in place and returns a report, kept in
-    the file's metadata as ``<part>_fit``; ``command`` (the script and its options) is added
-    to the recipe. Returns the report."""
-    metadata = model_metadata(model, FORMAT, "model")
-    net = load_network(model)
-    try:
-        net.config = dataclasses.replace(net.config, **{part: True})
-    except ValueError as error:  # a part this network's configuration cannot take
-        raise InputError(model, str(error)) from None
-    report = fit(net, ProbeBank([load_probe(path).radiance for path in find_probes(probes)]))
-    save_model(net, out, metadata | {"recipe": f"{metadata.get('recipe', '')}; then {command}",
-                                     f"{part}_fit": json.dumps(report)})
-    return report

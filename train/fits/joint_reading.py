@@ -1,16 +1,16 @@
-"""Fitting the JointReading head (train.networks) of an SVBRDF-net.
+"""Fitting the JointReading head (train.networks.svbrdf_net) of an SVBRDF-net.
 
 The homogeneous network reads the specular albedo and roughness, a photo-affine albedo
 network the reflection's share of the photo; on a flat glossy sample both read the same
 offset, which a lighter albedo explains as well as a stronger reflection. The head reads the
 five values together (beside a map albedo network, the homogeneous network's four), with
-quantiles of the photo's values (train.networks.photo_statistics), and is fit, the networks
-frozen, on the evaluation's relit error (train.estimate_evaluation), which a network trained
+quantiles of the photo's values (train.networks.svbrdf_net.photo_statistics), and is fit, the networks
+frozen, on the evaluation's relit error (train.evaluation.estimate_evaluation), which a network trained
 on the parameters' own errors does not weigh (a roughness read too low, a sharp highlight
 where the truth's is broad, costs more relit error than one read as much too high):
 
 1. **Photos.** ``photos`` labeled samples rendered from a folder of material maps under
-   training probes (train.map_samples.MapSampler, 256 px; mixed specular pairs unless
+   training probes (train.data.map_samples.MapSampler, 256 px; mixed specular pairs unless
    ``mix_specular`` is off: then each set's own pair, where the generator ties the two to
    the set's look, as wood's finish does), rounded to 8 bits after gamma 1/2.2 encoding as
    sa-evaluate's PNG photos are, then read by the frozen networks: their readings and the
@@ -31,7 +31,7 @@ where the truth's is broad, costs more relit error than one read as much too hig
    flat: its normal angle error is 1.05x the flat baseline's; the wood network's 0.75x);
    sa-evaluate judges the head with them.
 4. **Fit.** Adam (lr 1e-3, weight decay 1e-4) on the relit RMSE (the estimate's clamp leaks,
-   train.losses.RELIT_CLAMP_LEAK), minibatches of BATCH relights, ``steps`` steps. A tenth of
+   train.training.losses.RELIT_CLAMP_LEAK), minibatches of BATCH relights, ``steps`` steps. A tenth of
    the photos (CHECK_SHARE) is kept out of the fit; their relit error, with and without the
    head, is reported and drawn beside the loss (``WORK/fit.png``).
 
@@ -44,22 +44,16 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import torch
+from torch.nn import functional
+from tqdm import tqdm
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import torch  # noqa: E402
-from torch.nn import functional  # noqa: E402
-from tqdm import tqdm  # noqa: E402
-
-from render.common.atomic_files import atomic_path  # noqa: E402
-from render.common.exposure import exposure_scales  # noqa: E402
-from render.torch_renderer.renderer import render  # noqa: E402
-from train.losses import RELIT_CLAMP_LEAK, clamped_relit_rmse, maps_at_size  # noqa: E402
-from train.map_samples import MapSampler  # noqa: E402
-from train.networks import JointReading, photo_affine_albedo, photo_statistics  # noqa: E402
-from train.photos import PHOTO_GAMMA  # noqa: E402
+from render.common.exposure import exposure_scales
+from render.torch_renderer.renderer import render
+from train.fits.part_fitting import draw_fit, photo_batches, save_work, saved_work
+from train.networks.svbrdf_net import JointReading, photo_affine_albedo, photo_statistics
+from train.training.losses import RELIT_CLAMP_LEAK, clamped_relit_rmse, maps_at_size
 
 RELIT_SIZE = 32
 """Side (px) of the relit images the head is fit on."""
@@ -68,8 +62,6 @@ ALPHA_GRID = torch.exp(torch.linspace(math.log(0.02), 0.0, 33))
 BATCH = 256
 CHECK_SHARE = 0.1
 """Share of the photos kept out of the fit to report it on."""
-PHOTO_BATCH = 32
-"""Photos rendered and read by the networks at once."""
 
 
 @dataclass(frozen=True)
@@ -83,29 +75,9 @@ class FitConfig:
     relights: int = 2
     """Relights per photo, each under another training probe."""
     mix_specular: bool = True
-    """Photos of mixed specular pairs (train.map_samples) or of each set's own."""
+    """Photos of mixed specular pairs (train.data.map_samples) or of each set's own."""
     steps: int = 10000
     seed: int = 0
-
-
-def photo_round_trip(image):
-    """(B, 3, S, S) linear images in [0, 1] -> as read back from an 8-bit PNG encoded with
-    gamma 1 / PHOTO_GAMMA (sa-evaluate's photos)."""
-    encoded = torch.round(image.clamp(0.0, 1.0) ** (1.0 / PHOTO_GAMMA) * 255.0) / 255.0
-    return encoded ** PHOTO_GAMMA
-
-
-def photo_batches(maps, bank, size, count, rng, mix_specular=True):
-    """``count`` labeled samples rendered from the material folders of ``maps`` under the
-    probes of ``bank`` (MapSampler: ``size`` px crops of the maps resampled to twice that,
-    mixed specular pairs unless ``mix_specular`` is False), drawn with ``rng`` in batches of
-    PHOTO_BATCH: yields (batch, image), ``image`` the batch's photos as sa-evaluate reads them
-    (photo_round_trip)."""
-    sampler = MapSampler(maps, bank, range(len(bank)), size, 2 * size,
-                         mix_specular=mix_specular)
-    for start in tqdm(range(0, count, PHOTO_BATCH), desc="photos", unit="batch"):
-        batch = sampler.batch(rng, min(PHOTO_BATCH, count - start))
-        yield batch, photo_round_trip(batch["image"])
 
 
 def prepare(cfg, net, bank):
@@ -242,39 +214,3 @@ def fit(cfg, net, bank):
              f"relit RMSE ({RELIT_SIZE} px, flat normals)")
     return {"check_photos": check_count, "check_relit_before": before,
             "check_relit_after": checks[-1][1], "check_ratio": checks[-1][1] / before}
-
-
-def saved_work(path, options):
-    """The data a fit saved at ``path`` (save_work) under the same ``options``, or None; read
-    with torch's safe loader."""
-    if not path.is_file():
-        return None
-    saved = torch.load(path, weights_only=True)
-    return saved["data"] if saved["options"] == options else None
-
-
-def save_work(path, options, data):
-    """Save a fit's ``data`` (tensors and plain containers) at ``path`` with the ``options``
-    it depends on, atomically."""
-    with atomic_path(path) as tmp:
-        torch.save({"options": options, "data": data}, tmp)
-
-
-def draw_fit(path, losses, checks, before, loss_label, check_labels, ylabel):
-    """A fit's picture at ``path``: the loss per step (mean of 100 steps, ``loss_label``), the
-    kept-out photos' error at the ``checks`` ((step, error) pairs) and ``before`` the fit,
-    labelled ``check_labels`` (with, without)."""
-    figure, axis = plt.subplots(figsize=(7, 4))
-    window = min(100, len(losses))
-    smooth = np.convolve(losses, np.ones(window) / window, mode="valid")
-    axis.plot(np.arange(window, len(losses) + 1), smooth,
-              label=f"{loss_label} (mean of {window} steps)")
-    axis.plot([c[0] for c in checks], [c[1] for c in checks], "o-", label=check_labels[0])
-    axis.axhline(before, color="grey", linestyle="--", label=check_labels[1])
-    axis.set_xlabel("step")
-    axis.set_ylabel(ylabel)
-    axis.legend()
-    figure.tight_layout()
-    with atomic_path(path) as tmp:
-        figure.savefig(tmp, format="png", dpi=100)
-    plt.close(figure)

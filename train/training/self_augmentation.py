@@ -17,7 +17,7 @@ import torch
 from render.common.exposure import expose
 from render.common.views import random_view
 from render.torch_renderer.renderer import render
-from train.losses import clamp_to_valid
+from train.training.losses import clamp_to_valid
 
 
 def random_lightings(rng, count, probe_choices, max_view_angle=0.0):

@@ -5,7 +5,7 @@ metal), plus a general network trained on every class and a few real sets. A cla
 beats the general one on its class (models/README.md), so ``sa-estimate`` without a class
 asks this classifier which network to use (``--class auto``).
 
-The classifier sees a photo as the SVBRDF-nets do (train.photos.read_photo: linear RGB in
+The classifier sees a photo as the SVBRDF-nets do (train.data.photos.read_photo: linear RGB in
 [0, 1], S x S) and gives the probability of each of ROUTES: "wood", "plastic", "metal" (the
 class networks) or "general" (a material of none of these classes, for the general network).
 
@@ -23,13 +23,13 @@ than the baseline. A classifier file may therefore hold a second network of the 
 split the probability the first network gives the two together, which leaves the
 probabilities of wood and general as they were.
 
-Structure: the SVBRDF-nets' analysis blocks (train.networks.Analysis) on the photo box
+Structure: the SVBRDF-nets' analysis blocks (train.networks.svbrdf_net.Analysis) on the photo box
 filtered to ``CLASSIFIER_CONFIG.input_size`` and gamma 1/2.2 encoded, then the mean and the
 maximum of the last features over the image, and one linear layer to a logit per route.
 
 A classifier file is a safetensors file (weights in float16; ``format`` = FORMAT, the network
 configuration and the costs in its metadata), read without executing code, like the shipped
-models (train.model_files).
+models (train.networks.model_files).
 """
 
 import json
@@ -40,11 +40,11 @@ from torch import nn
 from torch.nn import functional
 
 from render.common.errors import InputError
-from train.model_files import load_weights_file, model_metadata, save_weights_file
-from train.networks import Analysis, NetworkConfig
+from train.networks.model_files import load_weights_file, model_metadata, save_weights_file
+from train.networks.svbrdf_net import Analysis, NetworkConfig
 
 ROUTES = ("wood", "plastic", "metal", "general")
-"""The classifier's answers: a shipped model name each (train.model_files.SHIPPED)."""
+"""The classifier's answers: a shipped model name each (train.networks.model_files.SHIPPED)."""
 FORMAT = "sa-svbrdf classifier 1"
 CLASSIFIER_CONFIG = NetworkConfig(input_size=128, width=16, max_width=64, levels=5, hidden=0)
 """128 px in, 4 x 4 x 64 features out (about 0.1 M parameters); ``hidden`` is unused."""

@@ -87,7 +87,7 @@ def relit_loss(prediction, target, probes, probe_index, rotation_deg, size, form
 
     - "log": the mean squared difference of log(1 + x) of the renders, not clamped (a too
       bright estimate still gets a gradient; the log compresses highlights);
-    - "rmse": the evaluation's relit error itself (train.estimate_evaluation): per sample the
+    - "rmse": the evaluation's relit error itself (train.evaluation.estimate_evaluation): per sample the
       root mean squared difference of the renders clamped to [0, 1], averaged over samples;
       the estimate's clamp leaks (RELIT_CLAMP_LEAK). Squared errors are averaged within a
       sample before the root, so a few badly relit samples weigh less than in "log"."""

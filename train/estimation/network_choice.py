@@ -6,7 +6,7 @@ what users get:
 - ``--model FILE``: that network for every photo (FixedNetwork);
 - ``--class wood|plastic|metal|general``: that shipped network for every photo;
 - ``--class auto`` (the default): the shipped network the material classifier picks for each
-  photo (ClassRouter; train.material_classifier).
+  photo (ClassRouter; train.estimation.material_classifier).
 
 A choice has ``input_size`` (the photo side its networks take; all the shipped networks share
 it) and ``for_photo(photo)``, which returns the network for a (3, S, S) photo and a dict saying
@@ -14,14 +14,28 @@ which one and why (``model``: its file; with the router also ``class`` and
 ``class_probabilities``).
 """
 
+from pathlib import Path
+
 import torch
 
 from render.common.errors import InputError
-from train.material_classifier import ROUTES, cheapest_route, load_classifier
-from train.model_files import MODELS, load_network, shipped_model_path, shipped_network_config
+from render.common.package_data import installed_file
+from train.estimation.material_classifier import ROUTES, cheapest_route, load_classifier
+from train.networks.model_files import (
+    SHIPPED_MODELS,
+    load_network,
+    shipped_model_path,
+    shipped_network_config,
+)
 
-CLASSIFIER_FILE = MODELS / "material-classifier.safetensors"
+CLASSIFIER_FILE = "material-classifier.safetensors"
+"""The material classifier's file among the shipped models."""
 AUTO = "auto"
+
+
+def shipped_classifier_path() -> Path:
+    """The shipped material classifier's file."""
+    return installed_file(SHIPPED_MODELS, CLASSIFIER_FILE)
 
 
 class FixedNetwork:
@@ -37,7 +51,7 @@ class FixedNetwork:
 
 class ClassRouter:
     """The shipped network the classifier picks for each photo (the least expected cost,
-    train.material_classifier.cheapest_route), loaded when first needed."""
+    train.estimation.material_classifier.cheapest_route), loaded when first needed."""
 
     def __init__(self, classifier, device="cpu"):
         self.classifier, self.device = classifier.to(device), device
@@ -68,5 +82,5 @@ def network_choice(model, material_class, device="cpu"):
     if model is not None:
         return FixedNetwork(load_network(model, device))
     if material_class == AUTO:
-        return ClassRouter(load_classifier(CLASSIFIER_FILE), device)
+        return ClassRouter(load_classifier(shipped_classifier_path()), device)
     return FixedNetwork(load_network(shipped_model_path(material_class), device))

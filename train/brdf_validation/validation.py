@@ -1,7 +1,7 @@
 """``sa-validate``: the paper's validation of self-augmentation on BRDF-net.
 
 Task: a monochrome image of a sphere of one homogeneous Ward BRDF under a monochrome probe ->
-``(log(diffuse / specular), log(alpha))`` (train.brdf_space). Spheres are rendered with the
+``(log(diffuse / specular), log(alpha))`` (train.brdf_validation.search_space). Spheres are rendered with the
 torch renderer (``render.torch_renderer.renderer.sphere_normals``); probes are reduced to their
 Rec. 709 luminance; each image is auto-exposed and clamped like the dataset's, so only the
 ratio of the albedos is observable.
@@ -9,7 +9,7 @@ ratio of the albedos is observable.
 A *lighting* is a (probe, rotation) pair; ``lightings`` of them are drawn once per run. Each
 labeled BRDF is seen under lightings drawn from that set; each unlabeled BRDF, and each test
 BRDF, under one lighting of the set fixed for the run.
-A run trains BRDF-net (train.networks.HomogeneousNet, 1 channel in, 2 out) on labeled
+A run trains BRDF-net (train.networks.svbrdf_net.HomogeneousNet, 1 channel in, 2 out) on labeled
 minibatches for ``labeled_iterations``; then, for ``augmented_iterations``, either labeled
 minibatches alone (no self-augmentation) or pairs of a self-augmented minibatch (predict the
 unlabeled spheres, clamp to the search space, render under a new lighting) and a labeled one.
@@ -33,24 +33,20 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import torch
+from matplotlib.colors import LogNorm
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.colors import LogNorm  # noqa: E402
-import numpy as np  # noqa: E402
-import torch  # noqa: E402
-
-from render.common.atomic_files import atomic_path, write_json  # noqa: E402
-from render.common.color import luminance  # noqa: E402
-from render.common.exposure import expose  # noqa: E402
-from render.common.probes import find_probes, load_probe  # noqa: E402
-from render.common.resume import continue_folder  # noqa: E402
-from render.torch_renderer.renderer import (ProbeBank, render, rotate_z,  # noqa: E402
-                                             sphere_normals)
-from train import brdf_space  # noqa: E402
-from train.networks import NetworkConfig, HomogeneousNet  # noqa: E402
-from train.optimization import OptimizerConfig, make_optimizer  # noqa: E402
+from render.common.atomic_files import atomic_path, write_json
+from render.common.color import luminance
+from render.common.exposure import expose
+from render.common.probes import find_probes, load_probe
+from render.common.resume import continue_folder
+from render.torch_renderer.renderer import ProbeBank, render, rotate_z, sphere_normals
+from train.brdf_validation import search_space
+from train.networks.svbrdf_net import HomogeneousNet, NetworkConfig
+from train.training.optimization import OptimizerConfig, make_optimizer
 
 log = logging.getLogger(__name__)
 MAY_CHANGE = ("out", "device")
@@ -179,9 +175,9 @@ def turned_spheres(normal, angle_deg):
 def from_targets(values):
     """(N, 2) predicted log(d / s), log(alpha) -> (N, 3) BRDFs with d + s = 1, clamped to the
     search space's range of ratios and roughnesses."""
-    ratio_limit = np.log(brdf_space.DIFFUSE[-1] / brdf_space.SPECULAR[0])
+    ratio_limit = np.log(search_space.DIFFUSE[-1] / search_space.SPECULAR[0])
     ratio = np.exp(np.clip(values[:, 0], -ratio_limit, ratio_limit))
-    alpha = np.exp(np.clip(values[:, 1], np.log(brdf_space.ROUGHNESS[0]), 0.0))
+    alpha = np.exp(np.clip(values[:, 1], np.log(search_space.ROUGHNESS[0]), 0.0))
     return np.stack([ratio / (1 + ratio), 1 / (1 + ratio), alpha], -1)
 
 
@@ -195,7 +191,7 @@ def train_run(cfg, renderer, labeled_mask, unlabeled_mask, self_augment, name):
     Returns (net, per-iteration losses)."""
     rng = np.random.default_rng([cfg.seed, zlib.crc32(name.encode()), int(self_augment)])
     torch.manual_seed(cfg.seed)
-    brdfs = brdf_space.training_brdfs()
+    brdfs = search_space.training_brdfs()
     labeled, unlabeled = brdfs[labeled_mask], brdfs[unlabeled_mask]
     unlabeled_lightings = np.random.default_rng([cfg.seed, 1]).integers(cfg.lightings,
                                                                         size=len(unlabeled))
@@ -218,7 +214,7 @@ def train_run(cfg, renderer, labeled_mask, unlabeled_mask, self_augment, name):
                 chosen = from_targets(net(photos).cpu().numpy())
             net.train()
         images = renderer(chosen, rng.integers(cfg.lightings, size=cfg.batch_size))
-        target = torch.as_tensor(brdf_space.targets(chosen), dtype=torch.float32,
+        target = torch.as_tensor(search_space.targets(chosen), dtype=torch.float32,
                                  device=cfg.device)
         loss = torch.mean((net(images) - target) ** 2)
         optimizer.zero_grad(set_to_none=True)
@@ -231,7 +227,7 @@ def train_run(cfg, renderer, labeled_mask, unlabeled_mask, self_augment, name):
 
 def evaluate(cfg, renderer, net):
     """Per test BRDF: render MSE and parameter MSE, each (N,)."""
-    tests = brdf_space.test_brdfs()
+    tests = search_space.test_brdfs()
     lightings = np.random.default_rng([cfg.seed, 2]).integers(cfg.lightings, size=len(tests))
     render_errors, parameter_errors = [], []
     net.eval()
@@ -242,7 +238,7 @@ def evaluate(cfg, renderer, net):
             predicted = net(images).cpu().numpy()
             estimate = renderer(from_targets(predicted), lightings[part])
             render_errors.append(((estimate - images) ** 2).mean((1, 2, 3)).cpu().numpy())
-            parameter_errors.append(((predicted - brdf_space.targets(tests[part])) ** 2).mean(1))
+            parameter_errors.append(((predicted - search_space.targets(tests[part])) ** 2).mean(1))
     return np.concatenate(render_errors), np.concatenate(parameter_errors)
 
 
@@ -273,7 +269,7 @@ def ratio_table(cfg, renderer, labeled_percents=RATIO_LABELED, unlabeled_percent
         row = {}
         for unlabeled_percent in (0,) + tuple(u for u in unlabeled_percents
                                               if labeled_percent + u <= 100):
-            labeled, unlabeled = brdf_space.random_split(labeled_percent, unlabeled_percent,
+            labeled, unlabeled = search_space.random_split(labeled_percent, unlabeled_percent,
                                                          cfg.seed)
             name = f"ratio {labeled_percent} {unlabeled_percent}"
             mse = finished_run(out, name, lambda: _ratio_run(
@@ -327,7 +323,7 @@ def _ratio_run(cfg, renderer, labeled, unlabeled, self_augment, name):
 def _pattern_run(cfg, renderer, pattern, self_augment):
     """Train and evaluate the run of one labeled set; its result dict."""
     start = time.perf_counter()
-    mask = brdf_space.labeled_mask(pattern, cfg.seed)
+    mask = search_space.labeled_mask(pattern, cfg.seed)
     net, _ = train_run(cfg, renderer, mask, ~mask, self_augment, pattern)
     render_errors, parameter_errors = evaluate(cfg, renderer, net)
     return {"pattern": pattern, "self_augmented": self_augment, "labeled": int(mask.sum()),
@@ -382,14 +378,14 @@ def _plot_heat_maps(path, results, seed):
     """One column per labeled set: its sampling pattern (labeled count over specular, per
     diffuse x roughness), the error heat map without and with SA (one log color scale)."""
     patterns = _patterns(results)
-    figure, axes = plt.subplots(3, len(patterns), figsize=(2.8 * len(patterns), 9),
-                                squeeze=False, layout="constrained")
+    figure = Figure(figsize=(2.8 * len(patterns), 9), layout="constrained")
+    axes = figure.subplots(3, len(patterns), squeeze=False)
     maps = [np.asarray(r["heat_map"]) for r in results.values()]
     scale = LogNorm(vmin=min(m[m > 0].min() for m in maps), vmax=max(m.max() for m in maps))
     for column, pattern in enumerate(patterns):
-        mask = brdf_space.labeled_mask(pattern, seed).reshape(10, 10, 15).sum(1)
+        mask = search_space.labeled_mask(pattern, seed).reshape(10, 10, 15).sum(1)
         axes[0, column].imshow(mask, cmap="Greys", origin="lower", aspect="auto", vmin=0,
-                               vmax=len(brdf_space.SPECULAR))
+                               vmax=len(search_space.SPECULAR))
         axes[0, column].set_title(f"{pattern}: labeled", fontsize=9)
         for row, key in ((1, pattern), (2, f"{pattern} SA")):
             axis = axes[row, column]
@@ -408,4 +404,3 @@ def _plot_heat_maps(path, results, seed):
                     label="render MSE (mean over specular), log scale")
     with atomic_path(path) as tmp:
         figure.savefig(tmp, format="png", dpi=100)
-    plt.close(figure)

@@ -1,4 +1,4 @@
-"""Fitting the AlbedoCorrection (train.networks) of a photo-affine SVBRDF-net.
+"""Fitting the AlbedoCorrection (train.networks.svbrdf_net) of a photo-affine SVBRDF-net.
 
 The photo-affine albedo is the photo less a grey offset: it keeps, beside the albedo, what
 else the photo shows pixel by pixel (the shading of a fine relief, its glints). The
@@ -6,8 +6,8 @@ correction, a small local network, learns where a pixel's value is albedo and wh
 from the albedo and its neighbourhood; it is fit after the other networks, which stay frozen:
 
 1. **Photos.** ``photos`` labeled samples rendered from a folder of material maps under
-   training probes (train.map_samples.MapSampler, mixed specular pairs, at the network's input
-   size), rounded to 8 bits as sa-evaluate's PNG photos are (train.joint_reading
+   training probes (train.data.map_samples.MapSampler, mixed specular pairs, at the network's input
+   size), rounded to 8 bits as sa-evaluate's PNG photos are (train.fits.part_fitting
    .photo_batches), each read by the frozen networks: its photo-affine albedo (through the
    JointReading head where the network has one), kept in float16 beside the truth's albedo.
 2. **Fit.** Adam on the albedo RMSE of each photo (before the correction's scaling to mean
@@ -19,7 +19,7 @@ from the albedo and its neighbourhood; it is fit after the other networks, which
 
 Step 1 takes 0.12 to 0.19 s per photo on the project's 2-core CPU, step 2 about 0.23 s per
 step; both save their state in WORK (``prepared.pt``, and ``fit.pt`` every CHECKPOINT_EVERY
-steps; train.joint_reading.save_work, read back with torch's safe loader), so a fit cut off
+steps; train.fits.part_fitting.save_work, read back with torch's safe loader), so a fit cut off
 starts again where it stopped when run with the same options, and a finished fit run again
 with more ``steps`` goes on. Each step's minibatch is drawn from its own seed (``seed``,
 step) and the fresh correction's weights from ``seed``, so a resumed fit draws what an uncut
@@ -33,8 +33,8 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from train.joint_reading import draw_fit, photo_batches, save_work, saved_work
-from train.networks import AlbedoCorrection
+from train.fits.part_fitting import draw_fit, photo_batches, save_work, saved_work
+from train.networks.svbrdf_net import AlbedoCorrection
 
 BATCH = 16
 """Crops per minibatch."""

@@ -1,13 +1,13 @@
 """The training loop of ``sa-train``: SVBRDF-net with or without self-augmentation.
 
-``run(cfg)`` trains on a ``render-dataset`` output, following train.schedule: labeled epochs,
-then epochs that interleave self-augmented minibatches (train.self_augmentation) with labeled
+``run(cfg)`` trains on a ``render-dataset`` output, following train.training.schedule: labeled epochs,
+then epochs that interleave self-augmented minibatches (train.training.self_augmentation) with labeled
 ones; without ``unlabeled`` data the same schedule runs on labeled minibatches alone (the
 baseline). Into ``out`` it writes:
 
     config.json            the resolved configuration; a re-run continues only with the same
                            options, except MAY_CHANGE (render.common.resume)
-    checkpoints/           step-000001000.pt ... (train.checkpoints); a run resumes from the
+    checkpoints/           step-000001000.pt ... (train.networks.checkpoints); a run resumes from the
                            newest and continues exactly as if it had not stopped
     tensorboard/           scalars (losses, learning rate, test errors) and example images
     history.json           every logged loss and every evaluation, also in the checkpoints
@@ -15,9 +15,9 @@ baseline). Into ``out`` it writes:
     examples.png           the newest evaluation's examples (input, albedo, normals)
 
 It logs a line every ``log_every`` steps and at every checkpoint (losses, ms per step, time
-left) and evaluates on the test split (train.evaluation) at the end of every epoch.
+left) and evaluates on the test split (train.training.test_evaluation) at the end of every epoch.
 
-Under ``torchrun`` the processes train one network data-parallel (train.distributed): each
+Under ``torchrun`` the processes train one network data-parallel (train.training.distributed): each
 takes its shard of every global minibatch of ``batch_size``, and only rank 0 writes and
 evaluates.
 """
@@ -28,33 +28,30 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import torch
+from matplotlib.figure import Figure
+from PIL import Image
+from torch.utils.tensorboard import SummaryWriter
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import torch  # noqa: E402
-from PIL import Image  # noqa: E402
-from torch.utils.tensorboard import SummaryWriter  # noqa: E402
-
-from render.common.atomic_files import atomic_path, write_json  # noqa: E402
-from render.common.errors import InputError  # noqa: E402
-from render.common.probes import find_probes, load_probe, tilted  # noqa: E402
-from render.common.resume import continue_folder  # noqa: E402
-from render.torch_renderer.renderer import ProbeBank  # noqa: E402
-from train import distributed  # noqa: E402
-from train.checkpoints import checkpoint_files, load_checkpoint, save_checkpoint  # noqa: E402
-from train.evaluation import evaluate, stack_items  # noqa: E402
-from train.labeled_dataset import LabeledDataset  # noqa: E402
-from train.losses import ALBEDO_LOSSES, RELIT_LOSS_FORMS, losses, relit_loss  # noqa: E402
-from train.map_samples import MapSampler  # noqa: E402
-from train.model_files import load_network  # noqa: E402
-from train.networks import PARTS, NetworkConfig, SVBRDFNet  # noqa: E402
-from train.optimization import OptimizerConfig, make_optimizer  # noqa: E402
-from train.schedule import SELF_AUGMENTED, Schedule, labeled_batch_indices  # noqa: E402
-from train.self_augmentation import random_lightings, self_augmented_batch  # noqa: E402
-from train.unlabeled_data import UnlabeledImages  # noqa: E402
-from train.unlabeled_selection import select_matching  # noqa: E402
+from render.common.atomic_files import atomic_path, write_json
+from render.common.errors import InputError
+from render.common.probes import find_probes, load_probe, tilted
+from render.common.resume import continue_folder
+from render.torch_renderer.renderer import ProbeBank
+from train.data.labeled_dataset import LabeledDataset
+from train.data.map_samples import MapSampler
+from train.data.unlabeled_data import UnlabeledImages
+from train.data.unlabeled_selection import select_matching
+from train.networks.checkpoints import checkpoint_files, load_checkpoint, save_checkpoint
+from train.networks.model_files import load_network
+from train.networks.svbrdf_net import PARTS, NetworkConfig, SVBRDFNet
+from train.training import distributed
+from train.training.losses import ALBEDO_LOSSES, RELIT_LOSS_FORMS, losses, relit_loss
+from train.training.optimization import OptimizerConfig, make_optimizer
+from train.training.schedule import SELF_AUGMENTED, Schedule, labeled_batch_indices
+from train.training.self_augmentation import random_lightings, self_augmented_batch
+from train.training.test_evaluation import evaluate, stack_items
 
 log = logging.getLogger(__name__)
 RELIT_LOSS_STREAM = 1
@@ -88,13 +85,13 @@ class TrainConfig:
     given), its test split evaluates."""
     labeled_maps: str | None = None
     """A folder of material folders: labeled minibatches are rendered from them on the fly by
-    the torch renderer (train.map_samples) instead of read from ``dataset``."""
+    the torch renderer (train.data.map_samples) instead of read from ``dataset``."""
     init_from: str | None = None
     """A model (shipped file, checkpoint or run folder) whose weights start the training, for
     fine-tuning; its network configuration must equal ``network`` but for the fields of
     FRESH_WHEN_CHANGED (Run._initialize_from). None: random weights."""
     train_networks: tuple = tuple(PARTS)
-    """The networks trained (names of train.networks.PARTS). The others keep their weights
+    """The networks trained (names of train.networks.svbrdf_net.PARTS). The others keep their weights
     (from ``init_from``), stay in evaluation mode and are not run in labeled steps: the paper
     trains its three networks separately, and training the homogeneous network alone costs
     about a third of a whole step."""
@@ -103,11 +100,11 @@ class TrainConfig:
     cropping (render-dataset's ``--render-size``)."""
     crop_scales: tuple = (1,)
     """With ``labeled_maps``: each crop spans the input size times one of these whole numbers
-    of map pixels, box filtered to the input size (train.map_samples): (1, 2) shows textures
+    of map pixels, box filtered to the input size (train.data.map_samples): (1, 2) shows textures
     at their scale and at half of it. ``render_size`` must hold the largest crop."""
     mix_specular: bool = False
     """With ``labeled_maps``: each sample takes the specular albedo and roughness of a random
-    material of the folder, not only its own (train.map_samples: with one pair per material,
+    material of the folder, not only its own (train.data.map_samples: with one pair per material,
     the network learns which texture has which pair instead of reading the reflection)."""
     epoch_samples: int = 3200
     """With ``labeled_maps``: labeled samples per epoch."""
@@ -123,21 +120,21 @@ class TrainConfig:
     """Epochs interleaving self-augmented and labeled minibatches (the paper: 10)."""
     unlabeled_per_labeled: float = 1.0
     """Self-augmented minibatches per labeled one in those epochs (the paper: 1; a fraction
-    such as 0.5 puts one before every other labeled minibatch, train/schedule.py)."""
+    such as 0.5 puts one before every other labeled minibatch, train/training/schedule.py)."""
     unlabeled_limit: int | None = None
     """Most unlabeled images in the color-matched subset."""
     albedo_loss: str = "linear"
     """The albedo network's loss: "linear" (the paper's squared error of the relative albedo)
-    or "log" (of its logarithm, train.losses.losses)."""
+    or "log" (of its logarithm, train.training.losses.losses)."""
     relit_loss_weight: float = 0.0
-    """Weight of the relit loss (train.losses.relit_loss) added to every step's loss: the
+    """Weight of the relit loss (train.training.losses.relit_loss) added to every step's loss: the
     estimate and the truth rendered under a new random probe (of those labeled renders use)
     and rotation, as the evaluation's relit error compares them. 0: the parameter losses
     alone, as the paper trains."""
     relit_loss_size: int = 64
     """Side (px) the maps are box filtered to for the relit loss's renders."""
     relit_loss_form: str = "log"
-    """How the relit loss compares the renders (train.losses.RELIT_LOSS_FORMS): "log", the
+    """How the relit loss compares the renders (train.training.losses.RELIT_LOSS_FORMS): "log", the
     mean squared difference of log(1 + x); "rmse", the evaluation's relit error (clamped
     renders, a root per sample)."""
     relit_partners: str = "truth"
@@ -512,7 +509,8 @@ def _evaluate(run_state, writer, epoch):
 
 
 def _plot_history(path, history):
-    figure, (train_axis, test_axis) = plt.subplots(1, 2, figsize=(11, 4))
+    figure = Figure(figsize=(11, 4))
+    train_axis, test_axis = figure.subplots(1, 2)
     for kind in ("labeled", SELF_AUGMENTED):
         points = [(r["step"], r[kind]) for r in history["train"] if kind in r]
         if points:
@@ -527,7 +525,6 @@ def _plot_history(path, history):
     figure.tight_layout()
     with atomic_path(path) as tmp:
         figure.savefig(tmp, format="png", dpi=100)
-    plt.close(figure)
 
 
 def _duration(seconds):

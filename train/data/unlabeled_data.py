@@ -1,6 +1,6 @@
 """Unlabeled training images: a folder of photos, or a dataset folder whose labels are ignored.
 
-Photos are read by train.photos.read_photo (its rule: linearized, centre square, resized to the
+Photos are read by train.data.photos.read_photo (its rule: linearized, centre square, resized to the
 network's input size); a ``render-dataset`` output (a folder with ``index.json``) gives the
 images of all its samples, which must already have the input size.
 """
@@ -11,8 +11,8 @@ import numpy as np
 
 from render.common.errors import InputError
 from render.common.images import IMAGE_SUFFIXES
-from train.labeled_dataset import LabeledDataset
-from train.photos import read_photo
+from train.data.labeled_dataset import LabeledDataset
+from train.data.photos import read_photo
 
 
 class UnlabeledImages:

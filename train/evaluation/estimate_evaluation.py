@@ -3,11 +3,11 @@ baseline. This is the number the project is judged by.
 
 Test data is either ``render-dataset`` folders (up to ``--samples`` of their ``--split``, by
 default the held-out "test" split, evenly spaced over the folders in order) or a folder of material folders, rendered here by the torch renderer under the
-probes of ``--probes`` (train.map_samples; ``--samples`` of them, drawn from ``--seed``).
+probes of ``--probes`` (train.data.map_samples; ``--samples`` of them, drawn from ``--seed``).
 
 Each test image goes the way a user's photo goes: it is saved as an 8-bit PNG, gamma 1/2.2
-encoded, and read back by train.photos.read_photo (gamma 2.2 decoding, centre square, resize),
-then estimated by train.estimate.estimate with the network train.network_choice gives it (with
+encoded, and read back by train.data.photos.read_photo (gamma 2.2 decoding, centre square, resize),
+then estimated by train.estimation.estimator.estimate with the network train.estimation.network_choice gives it (with
 ``--class auto``, the shipped network the material classifier picks for that photo), exactly as
 ``sa-estimate`` does. The truth is box filtered to the network's input size when the data has
 another.
@@ -39,13 +39,10 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import torch  # noqa: E402
-from PIL import Image  # noqa: E402
+import numpy as np
+import torch
+from matplotlib.figure import Figure
+from PIL import Image
 from torch.nn import functional
 from tqdm import tqdm
 
@@ -55,12 +52,12 @@ from render.common.errors import InputError, require_output_folder
 from render.common.exposure import expose
 from render.common.probes import find_probes, load_probe
 from render.torch_renderer.renderer import ProbeBank, render, sphere_normals, ward_kernel
-from train.estimate import estimate
-from train.labeled_dataset import LabeledDataset
-from train.losses import maps_at_size
-from train.map_samples import MapSampler
-from train.material_classifier import ROUTES
-from train.photos import PHOTO_GAMMA, read_photo
+from train.data.labeled_dataset import LabeledDataset
+from train.data.map_samples import MapSampler
+from train.data.photos import PHOTO_GAMMA, read_photo
+from train.estimation.estimator import estimate
+from train.estimation.material_classifier import ROUTES
+from train.training.losses import maps_at_size
 
 NAIVE_SPECULAR = 0.08
 NAIVE_ROUGHNESS = 0.25
@@ -137,7 +134,7 @@ def test_samples(cfg, bank, probe_names):
 
 def as_photo_file(image, folder, name):
     """Save a linear (3, H, W) image in [0, 1] as an 8-bit PNG encoded with gamma 1/2.2, the
-    encoding train.photos.read_photo undoes; returns the path."""
+    encoding train.data.photos.read_photo undoes; returns the path."""
     path = Path(folder) / f"{name}.png"
     encoded = np.clip(image.transpose(1, 2, 0), 0.0, 1.0) ** (1.0 / PHOTO_GAMMA)
     Image.fromarray(np.round(encoded * 255.0).astype(np.uint8)).save(path)
@@ -146,7 +143,7 @@ def as_photo_file(image, folder, name):
 
 def model_estimate(choice, photo):
     """The estimate sa-estimate would write, as a dict of (1, ...) tensors, and the dict that
-    says which network made it (train.network_choice)."""
+    says which network made it (train.estimation.network_choice)."""
     net, chosen = choice.for_photo(photo)
     svbrdf = estimate(net, photo)
     return {"albedo": torch.as_tensor(svbrdf.albedo.transpose(2, 0, 1))[None],
@@ -215,7 +212,7 @@ def held_out_probes(cfg):
 
 
 def run(cfg, choice):
-    """Evaluate the estimates of the networks ``choice`` gives (train.network_choice) on the
+    """Evaluate the estimates of the networks ``choice`` gives (train.estimation.network_choice) on the
     data of ``cfg``; write results.json and figure.png into ``cfg.out``; return the report
     dict."""
     require_output_folder(cfg.out)
@@ -325,7 +322,7 @@ def write_figure(path, rows):
     names = ["photo", "albedo est", "albedo true", "normals est", "normals true",
              "specular est", "specular true", "relit est", "relit true"]
     height, width = picture.shape[:2]
-    figure = plt.figure(figsize=(width / 100, height / 100 + 0.3), dpi=100)
+    figure = Figure(figsize=(width / 100, height / 100 + 0.3), dpi=100)
     axis = figure.add_axes([0, 0, 1, height / (height + 30)])
     axis.imshow(picture)
     axis.axis("off")
@@ -334,4 +331,3 @@ def write_figure(path, rows):
                     va="center", fontsize=8)
     with atomic_path(path) as tmp:
         figure.savefig(tmp, format="png", dpi=100)
-    plt.close(figure)

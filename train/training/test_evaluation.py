@@ -11,7 +11,7 @@ import numpy as np
 import torch
 
 from render.common.color import linear_to_srgb
-from train.losses import LABELS, normal_angle_deg, relit
+from train.training.losses import LABELS, normal_angle_deg, relit
 
 EXAMPLES = 4
 

@@ -1,0 +1,68 @@
+"""The Python API of estimation (train.estimation.Estimator): what sa-estimate writes, as
+arrays, and the README's example runs as printed."""
+
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from render.common.images import read_image
+from tests.conftest import REPO
+from train.cli.sa_estimate import main as sa_estimate
+from train.estimation import Estimator
+
+PHOTO = REPO / "scenes" / "photos" / "brick-reference-01.jpg"
+
+
+@pytest.fixture(scope="module")
+def estimator():
+    return Estimator(material_class="general", max_side=128)
+
+
+def test_the_api_gives_what_sa_estimate_writes(estimator, tmp_path):
+    result = estimator.estimate_file(PHOTO)
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exit_code:
+        sa_estimate([str(PHOTO), "--class", "general", "--max-side", "128", "--out", str(out)])
+    assert exit_code.value.code == 0
+    folder = out / PHOTO.stem
+    assert result.albedo.shape == (96, 128, 3) and result.albedo.dtype == np.float32
+    np.testing.assert_array_equal(read_image(folder / "albedo.exr"), result.albedo)
+    np.testing.assert_allclose(read_image(folder / "normal.exr") * 2.0 - 1.0, result.normal,
+                               atol=1e-6)  # float32 rounding of the (n + 1) / 2 encoding
+    np.testing.assert_allclose(np.linalg.norm(result.normal, axis=-1), 1.0, rtol=1e-5)
+    assert 0.02 <= result.roughness <= 1.0 and result.specular_albedo.shape == (3,)
+    assert result.network["model"].endswith("svbrdf-general.safetensors")
+
+
+def test_an_array_is_estimated_as_the_same_photo_read_from_a_file(estimator):
+    from train.data.photos import read_linear_photo
+    from_file = estimator.estimate_file(PHOTO)
+    from_array = estimator.estimate(read_linear_photo(PHOTO).astype(np.float64))
+    np.testing.assert_array_equal(from_file.albedo, from_array.albedo)
+    assert from_file.roughness == from_array.roughness
+
+
+@pytest.mark.parametrize("pixels, message", [
+    (np.zeros((64, 64)), r"\(H, W, 3\) numpy array of linear RGB, got \(64, 64\)"),
+    (np.zeros((64, 64, 3), np.uint8), "floating-point linear RGB, got uint8"),
+    (np.zeros((8, 64, 3)), "photo is 64x8 pixels"),
+    (np.full((64, 64, 3), np.nan), "NaN or infinite"),
+])
+def test_bad_arrays_get_one_clear_line(estimator, pixels, message):
+    with pytest.raises(ValueError, match=message):
+        estimator.estimate(pixels)
+
+
+def test_the_readme_example_runs():
+    readme = (REPO / "README.md").read_text()
+    section = readme[readme.index("### Python API"):]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    result = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
+                            text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0] == "(192, 256, 3) (192, 256, 3)"
+    assert "svbrdf-" in lines[2]

@@ -1,0 +1,1 @@
+"""sa-validate: the paper's validation of self-augmentation on BRDF-net."""

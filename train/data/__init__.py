@@ -1,0 +1,1 @@
+"""Data for training: labeled datasets, labeled maps rendered on the fly, photos, unlabeled images."""

@@ -1,0 +1,1 @@
+"""Networks and their files: SVBRDF-net's networks and parts, training checkpoints, shipped model files."""
