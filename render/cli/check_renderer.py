@@ -2,6 +2,7 @@
 when the worst case is below the threshold."""
 
 import json
+from typing import Any
 
 import click
 
@@ -23,7 +24,7 @@ from render.torch_renderer.check import DEFAULT_ROUGHNESS, CheckConfig, run
               help="Fail when any case's PSNR (dB) is below this.")
 @click.option("--out", type=click.Path(), default=None,
               help="Write side-by-side images (Mitsuba | torch | 10x difference) and report.json.")
-def main(roughness, **options):
+def main(roughness: str, **options: Any) -> None:
     """Compare the torch renderer with converged Mitsuba renders; exit 1 over the threshold."""
     try:
         values = tuple(float(v) for v in roughness.split(","))

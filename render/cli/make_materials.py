@@ -2,6 +2,7 @@
 
 import json
 import logging
+from typing import Any
 
 import click
 
@@ -25,7 +26,7 @@ from render.materials.procedural.material_set import GENERATORS
               help="Also render the contact sheet's sets under this probe with Mitsuba.")
 @click.option("--spp", default=128, show_default=True, type=click.IntRange(min=1),
               help="Samples per pixel of those renders.")
-def main(**options):
+def main(**options: Any) -> None:
     """Write COUNT material sets of one class, and a contact sheet of the first few."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     cfg = MakeMaterialsConfig(**options)

@@ -3,6 +3,7 @@
 import dataclasses
 import json
 import logging
+from typing import Any
 
 import click
 
@@ -40,7 +41,7 @@ from render.dataset.generator import DatasetConfig, run
               help="Mean luminance after auto-exposure.")
 @click.option("--max-view-angle", default=0.0, show_default=True,
               help="Largest random view tilt from the normal (degrees).")
-def main(render_size, **options):
+def main(render_size: int | None, **options: Any) -> None:
     """Render labeled (photo, reduced SVBRDF) pairs with Mitsuba 3."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     cfg = DatasetConfig(render_size=render_size or 2 * options["resolution"], **options)

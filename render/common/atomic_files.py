@@ -8,6 +8,7 @@ import contextlib
 import json
 import os
 import zipfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,7 @@ from render.common.errors import InputError
 
 
 @contextlib.contextmanager
-def atomic_path(path):
+def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it to ``path`` if the block succeeds.
     A failed write (disk full, no permission) raises InputError naming ``path``; whatever
     ``path`` held before is kept."""
@@ -32,7 +33,7 @@ def atomic_path(path):
         tmp.unlink(missing_ok=True)
 
 
-def write_json(path, data):
+def write_json(path: str | Path, data: dict) -> None:
     with atomic_path(path) as tmp:
         tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
 
@@ -42,7 +43,7 @@ ZIP_EPOCH = (1980, 1, 1, 0, 0, 0)
 always give the same bytes; ``np.savez`` stamps the current time instead."""
 
 
-def write_npz(path, **arrays):
+def write_npz(path: str | Path, **arrays: np.ndarray) -> None:
     """Uncompressed ``.npz`` (fast to stream, readable by ``np.load``), written atomically; the
     same arrays give byte-identical files."""
     with atomic_path(path) as tmp:

@@ -6,13 +6,13 @@ from pathlib import Path
 class InputError(ValueError):
     """Bad input data. The message is one line that names the file and the problem."""
 
-    def __init__(self, path, problem):
+    def __init__(self, path: str | Path, problem: str):
         self.path = str(path)
         self.problem = problem
         super().__init__(f"{self.path}: {problem}")
 
 
-def require_folder(path, what):
+def require_folder(path: str | Path, what: str) -> Path:
     """``path`` (a Path) if it is a folder; else an InputError naming it: ``what`` not found,
     or a file where a folder is wanted."""
     path = Path(path)
@@ -23,7 +23,7 @@ def require_folder(path, what):
     return path
 
 
-def require_file(path, what):
+def require_file(path: str | Path, what: str) -> Path:
     """``path`` (a Path) if it is a non-empty file; else an InputError naming it: ``what`` not
     found, a folder where a file is wanted, or an empty file."""
     path = Path(path)
@@ -36,7 +36,7 @@ def require_file(path, what):
     return path
 
 
-def require_output_folder(path):
+def require_output_folder(path: str | Path) -> Path:
     """``path`` (a Path) if it is a folder or does not exist yet; else an InputError naming it."""
     path = Path(path)
     if path.exists() and not path.is_dir():

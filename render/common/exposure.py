@@ -12,14 +12,21 @@ dataset generator, photos) and also returns the scale it used; ``expose`` expose
 torch form uses tensor methods only, so this module does not import torch.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from render.common.color import REC709_LUMINANCE, luminance
 
+if TYPE_CHECKING:
+    import torch
+
 DEFAULT_KEY = 0.18
 
 
-def exposure_scale(hdr, key=DEFAULT_KEY):
+def exposure_scale(hdr: np.ndarray, key: float = DEFAULT_KEY) -> float:
     """Factor that maps the mean luminance of ``hdr`` (H, W, 3), linear RGB, to ``key``."""
     mean = float(luminance(hdr).mean())
     if not np.isfinite(mean) or mean <= 0:
@@ -27,13 +34,13 @@ def exposure_scale(hdr, key=DEFAULT_KEY):
     return key / mean
 
 
-def expose_numpy(hdr, key=DEFAULT_KEY):
+def expose_numpy(hdr: np.ndarray, key: float = DEFAULT_KEY) -> tuple[np.ndarray, float]:
     """(exposed image clamped to [0, 1], float32; the exposure scale used)."""
     scale = exposure_scale(hdr, key)
     return np.clip(hdr * scale, 0.0, 1.0).astype(np.float32), scale
 
 
-def exposure_scales(hdr, key=DEFAULT_KEY):
+def exposure_scales(hdr: torch.Tensor, key: float = DEFAULT_KEY) -> torch.Tensor:
     """(B,) factors that map the mean Rec. 709 luminance of each of the (B, 3, H, W) torch
     images ``hdr`` to ``key`` (the torch form of exposure_scale). Raises ValueError where an
     image is black or not finite."""
@@ -46,7 +53,8 @@ def exposure_scales(hdr, key=DEFAULT_KEY):
     return key / mean
 
 
-def expose(hdr, key=DEFAULT_KEY, reference=None, clamp=True):
+def expose(hdr: torch.Tensor, key: float = DEFAULT_KEY, reference: torch.Tensor | None = None,
+           clamp: bool = True) -> torch.Tensor:
     """Auto-exposure and clamping of (B, 3, H, W) HDR torch tensors, as ``expose_numpy`` does
     to each image: each image scaled so its mean Rec. 709 luminance is ``key``, then clamped to
     [0, 1] (unless ``clamp`` is False). With ``reference`` (same shape), each image takes the

@@ -3,9 +3,9 @@
 Arrays are float32, layout (H, W, C), row 0 at the top of the picture. 8- and 16-bit files
 (PNG, JPEG, TIFF, BMP) are returned as stored, scaled to [0, 1] (no transfer function is
 applied here); OpenEXR and Radiance ``.hdr`` files are returned as stored (linear radiance or
-linear data); ``resize`` resamples them. Every failure raises ``InputError`` naming the file, including an image above
-MAX_IMAGE_PIXELS, refused from its header before it is decoded (LDR and OpenEXR files; Radiance
-``.hdr`` files are decoded by Mitsuba without that check).
+linear data); ``resize`` resamples them. Every failure raises ``InputError`` naming the file,
+including an image above MAX_IMAGE_PIXELS, refused from its header before it is decoded (LDR
+and OpenEXR files; Radiance ``.hdr`` files are decoded by Mitsuba without that check).
 """
 
 from pathlib import Path
@@ -26,11 +26,11 @@ MAX_IMAGE_PIXELS = 200_000_000
 Image.MAX_IMAGE_PIXELS = None  # Pillow's own limit gives way to MAX_IMAGE_PIXELS (read_image)
 
 
-def is_hdr(path):
+def is_hdr(path: str | Path) -> bool:
     return Path(path).suffix.lower() in HDR_SUFFIXES
 
 
-def read_image(path):
+def read_image(path: str | Path) -> np.ndarray:
     """Read an image file as float32 (H, W, C) with C in {1, 3}; alpha is dropped."""
     path = require_file(path, "image")
     suffix = path.suffix.lower()
@@ -110,7 +110,7 @@ def _first_line(error):
     return text[-1].strip() if text else type(error).__name__
 
 
-def write_exr(path, pixels):
+def write_exr(path: str | Path, pixels: np.ndarray) -> None:
     """Write float32 (H, W, 3) or (H, W) pixels as a ZIP-compressed OpenEXR file, atomically."""
     pixels = np.ascontiguousarray(pixels, dtype=np.float32)
     channels = {"RGB": pixels} if pixels.ndim == 3 else {"Y": pixels}
@@ -123,13 +123,13 @@ def write_exr(path, pixels):
                 raise OSError(_first_line(error)) from None
 
 
-def write_png(path, linear_rgb):
+def write_png(path: str | Path, linear_rgb: np.ndarray) -> None:
     """Write linear RGB in [0, 1] (H, W, 3) as an 8-bit sRGB PNG, atomically."""
     with atomic_path(path) as tmp:
         Image.fromarray(to_png_bytes(linear_rgb)).save(tmp, format="PNG")
 
 
-def resize(pixels, height, width):
+def resize(pixels: np.ndarray, height: int, width: int) -> np.ndarray:
     """(H, W, C) float pixels to (height, width, C) float32: box filter when the pixel count
     shrinks (pixel areas averaged), bilinear otherwise."""
     shrinking = height * width < pixels.shape[0] * pixels.shape[1]

@@ -9,7 +9,8 @@ and y up in the image.
 import numpy as np
 
 
-def rotate_quarter_turns(image, albedo, normal, turns):
+def rotate_quarter_turns(image: np.ndarray, albedo: np.ndarray, normal: np.ndarray,
+                         turns: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rotate (H, W, C) maps by ``turns`` x 90 degrees counter-clockwise; normals turn too."""
     turns %= 4
     image, albedo, normal = (np.rot90(a, turns) for a in (image, albedo, normal))
@@ -20,7 +21,8 @@ def rotate_quarter_turns(image, albedo, normal, turns):
     return np.ascontiguousarray(image), np.ascontiguousarray(albedo), normal
 
 
-def relative_labels(albedo, specular):
+def relative_labels(albedo: np.ndarray,
+                    specular: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The paper's relative albedos: s = 2 mean(albedo) over pixels and channels.
 
     Returns (albedo / s, log(specular / s)); mean(albedo / s) is 0.5.

@@ -18,7 +18,8 @@ BUNDLED_PROBES = "render.bundled_probes"
 
 def installed_file(package: str, name: str) -> Path:
     """The file ``name`` installed as data of the data package ``package`` (SCENES,
-    BUNDLED_PROBES, or train's SHIPPED_MODELS); an InputError naming it when this installation lacks it."""
+    BUNDLED_PROBES, or train's SHIPPED_MODELS); an InputError naming it when this installation
+    lacks it."""
     path = Path(str(files(package) / name))
     if not path.is_file():
         raise InputError(path, "file missing from this installation")

@@ -14,6 +14,7 @@ Lambertian plane (albedo 1) reflects a radiance of exactly 1 in every channel.
 """
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,7 +44,7 @@ class Probe:
     """(3,) per-channel factors that were applied to the file's radiance."""
 
 
-def find_probes(folder):
+def find_probes(folder: str | Path) -> list[Path]:
     """Sorted probe files (``.exr``, ``.hdr``) directly in ``folder``."""
     folder = require_folder(folder, "probe folder")
     files = sorted(p for p in folder.iterdir() if p.suffix.lower() in HDR_SUFFIXES)
@@ -52,7 +53,7 @@ def find_probes(folder):
     return files
 
 
-def load_probe(path):
+def load_probe(path: str | Path) -> Probe:
     """Read, validate and white-balance one probe file."""
     path = require_file(path, "probe")
     if path.suffix.lower() not in HDR_SUFFIXES:
@@ -69,7 +70,8 @@ def load_probe(path):
     radiance = _clamp_negative(path, radiance)
     irradiance = plane_irradiance(radiance)
     if not (irradiance > 0).all():
-        raise InputError(path, f"no light above the horizon in some channel (irradiance {irradiance})")
+        raise InputError(path, f"no light above the horizon in some channel "
+                               f"(irradiance {irradiance})")
     factors = (np.pi / irradiance).astype(np.float32)
     return Probe(path.stem, path, radiance * factors, factors)
 
@@ -86,7 +88,8 @@ def _clamp_negative(path, radiance):
     return np.maximum(radiance, 0.0)
 
 
-def latitude_weights(height, profile, steps_per_row=64):
+def latitude_weights(height: int, profile: Callable[[np.ndarray], np.ndarray],
+                     steps_per_row: int = 64) -> np.ndarray:
     """Weights (H,) that integrate a probe's bilinear interpolant over the upper hemisphere.
 
     Row i's weight is the integral over theta in [0, pi/2] of its linear "tent" (1 at
@@ -105,7 +108,7 @@ def latitude_weights(height, profile, steps_per_row=64):
     return band
 
 
-def plane_irradiance(radiance):
+def plane_irradiance(radiance: np.ndarray) -> np.ndarray:
     """Irradiance on the upward plane, (3,): the integral of L cos(theta) over the upper
     hemisphere, with L interpolated bilinearly between samples as in the module docstring.
     Linear interpolation keeps each row's mean along phi, so only the latitude weights need
@@ -117,7 +120,7 @@ def plane_irradiance(radiance):
     return band @ row_sums
 
 
-def tilted(radiance, tilt_deg, azimuth_deg):
+def tilted(radiance: np.ndarray, tilt_deg: float, azimuth_deg: float) -> np.ndarray:
     """``radiance`` (H, 2H, 3) of a probe turned by ``tilt_deg`` about the horizontal axis at
     azimuth ``azimuth_deg`` (degrees; the axis (cos a, sin a, 0), turned right-handedly), so
     that the probe's zenith moves to a direction ``tilt_deg`` from +z (a low sun can come
@@ -143,7 +146,7 @@ def tilted(radiance, tilt_deg, azimuth_deg):
     return (top * (1 - fr) + bottom * fr).astype(radiance.dtype)
 
 
-def pixel_directions(height, width, rotation_deg=0.0):
+def pixel_directions(height: int, width: int, rotation_deg: float = 0.0) -> np.ndarray:
     """World directions (H, W, 3) of the probe's samples when rotated by ``rotation_deg``."""
     theta = np.pi * np.arange(height) / (height - 1)
     phi = -2 * np.pi * (np.arange(width) + 0.5) / width + np.radians(rotation_deg)

@@ -10,6 +10,8 @@ Nested options (a network's configuration) are compared field by field, named wi
 """
 
 import json
+from collections.abc import Collection
+from pathlib import Path
 
 from render.common.atomic_files import write_json
 from render.common.errors import InputError, require_output_folder
@@ -26,7 +28,8 @@ def _flatten(options, prefix=""):
     return flat
 
 
-def differing_options(previous, current, may_change):
+def differing_options(previous: dict, current: dict,
+                      may_change: Collection[str]) -> list[str]:
     """Sorted dotted names of the options that differ between two option dicts, except those
     in ``may_change`` (top-level names)."""
     old, new = _flatten(previous), _flatten(current)
@@ -34,7 +37,8 @@ def differing_options(previous, current, may_change):
                   if name.split(".")[0] not in may_change and old.get(name) != new.get(name))
 
 
-def continue_folder(out, options, may_change, write=True):
+def continue_folder(out: str | Path, options: dict, may_change: Collection[str],
+                    write: bool = True) -> bool:
     """Check that folder ``out`` is new or holds the output of the same options (except
     ``may_change``), then record ``options`` in ``out/config.json`` (if ``write``). Returns True
     when the folder held earlier output to continue. Raises InputError naming the differing

@@ -4,7 +4,7 @@ toward the camera, z > 0)."""
 import numpy as np
 
 
-def random_view(rng, max_angle_deg):
+def random_view(rng: np.random.Generator, max_angle_deg: float) -> np.ndarray:
     """Unit view direction, uniform in solid angle within ``max_angle_deg`` of +z."""
     cos_max = np.cos(np.radians(max_angle_deg))
     cos_t = 1 - rng.random() * (1 - cos_max)

@@ -5,6 +5,8 @@ Each row is one sample: the network input, the relative diffuse albedo, the norm
 material, probe, specular albedo and roughness.
 """
 
+from pathlib import Path
+
 import numpy as np
 from PIL import Image, ImageDraw
 
@@ -19,7 +21,7 @@ def _tile(pixels_8bit):
     return Image.fromarray(pixels_8bit).resize((TILE, TILE), Image.Resampling.BILINEAR)
 
 
-def write_contact_sheet(path, samples):
+def write_contact_sheet(path: str | Path, samples: list[dict]) -> None:
     """``samples``: list of dicts with image, albedo, normal (H, W, 3), log_specular (3,),
     log_roughness (1,) and provenance (dict)."""
     columns = 4

@@ -17,6 +17,7 @@ import json
 import logging
 import multiprocessing
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,7 +29,7 @@ from render.common.exposure import DEFAULT_KEY
 from render.common.probes import find_probes, load_probe
 from render.common.resume import continue_folder
 from render.dataset.contact_sheet import write_contact_sheet
-from render.dataset.tasks import TaskRenderer, plan_tasks, write_task
+from render.dataset.tasks import Task, TaskRenderer, TaskResult, plan_tasks, write_task
 from render.materials.reduced_svbrdf import find_materials, load_material
 from render.mitsuba_reference.scene import DEFAULT_SAMPLER
 
@@ -84,7 +85,7 @@ class DatasetConfig:
     max_view_angle: float = 0.0
     """Largest angle in degrees between the view and the normal; 0 is fronto-parallel."""
 
-    def validate(self):
+    def validate(self) -> None:
         if self.resolution < 8:
             raise ValueError("--resolution must be at least 8")
         if self.render_size < self.resolution:
@@ -98,7 +99,7 @@ class DatasetConfig:
             raise ValueError("--max-view-angle must be in [0, 90)")
 
 
-def validate_inputs(cfg):
+def validate_inputs(cfg: DatasetConfig) -> tuple[list[Path], list[Path]]:
     """Load every material and probe once, so bad input fails before any rendering."""
     materials, probes = find_materials(cfg.svbrdfs), find_probes(cfg.probes)
     for folder in materials:
@@ -120,7 +121,7 @@ def _render_in_worker(task):
     return _worker.render(task)
 
 
-def run(cfg):
+def run(cfg: DatasetConfig) -> dict:
     """Render the dataset described by ``cfg`` (resuming if ``cfg.out`` holds a partial run)."""
     cfg.validate()
     out = Path(cfg.out)
@@ -140,7 +141,7 @@ def run(cfg):
     return finish(cfg, tasks)
 
 
-def render_tasks(cfg, tasks):
+def render_tasks(cfg: DatasetConfig, tasks: list[Task]) -> Iterator[TaskResult]:
     """Yield the TaskResult of every task, in any order: in this process (one worker), in a
     pool of ``workers`` local processes, or as Ray tasks when ``cfg.ray`` is set."""
     if cfg.ray is not None:
@@ -157,7 +158,7 @@ def render_tasks(cfg, tasks):
             yield from pool.imap_unordered(_render_in_worker, tasks)
 
 
-def finish(cfg, tasks):
+def finish(cfg: DatasetConfig, tasks: list[Task]) -> dict:
     """Write index.json and the contact sheet from the task markers; returns the index."""
     out = Path(cfg.out)
     samples = []

@@ -12,17 +12,19 @@ the run, a pool worker, a Ray worker); ``write_task`` writes a result's files.
 
 import json
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from render.common.atomic_files import write_json, write_npz
 from render.common.exposure import expose_numpy
 from render.common.labels import relative_labels, rotate_quarter_turns
-from render.common.probes import load_probe
+from render.common.probes import Probe, load_probe
 from render.common.views import random_view
-from render.materials.reduced_svbrdf import load_material, resample
+from render.materials.reduced_svbrdf import ReducedSVBRDF, load_material, resample
 
 
 @dataclass(frozen=True)
@@ -33,11 +35,11 @@ class Task:
     split: str
 
     @property
-    def name(self):
+    def name(self) -> str:
         return f"{self.material.name}__{self.probe.stem}__r{self.rotation:02d}"
 
 
-def split_names(names, fraction, seed, salt):
+def split_names(names: list[str], fraction: float, seed: int, salt: int) -> set[str]:
     """Names held out for testing: a seeded random ``fraction`` (at least one if the fraction
     is positive, never all)."""
     count = min(len(names) - 1, max(1, round(fraction * len(names)))) if fraction > 0 else 0
@@ -45,7 +47,7 @@ def split_names(names, fraction, seed, salt):
     return {names[i] for i in order[:count]}
 
 
-def plan_tasks(cfg, materials, probes):
+def plan_tasks(cfg: Any, materials: list[Path], probes: list[Path]) -> list[Task]:
     test_materials = split_names([m.name for m in materials], cfg.test_materials, cfg.seed, 1)
     test_probes = split_names([p.stem for p in probes], cfg.test_probes, cfg.seed, 2)
     tasks = []
@@ -59,7 +61,7 @@ def plan_tasks(cfg, materials, probes):
     return tasks
 
 
-def task_rng(cfg, task):
+def task_rng(cfg: Any, task: Task) -> np.random.Generator:
     """The generator of every random choice of a task, independent of run order."""
     key = [cfg.seed, zlib.crc32(task.material.name.encode()), zlib.crc32(task.probe.stem.encode()),
            task.rotation]
@@ -74,7 +76,8 @@ class TaskRenderer:
     otherwise they are read from disk.
     """
 
-    def __init__(self, cfg, threads=None, inputs=None):
+    def __init__(self, cfg: Any, threads: int | None = None,
+                 inputs: dict[Path, Callable[[], ReducedSVBRDF | Probe]] | None = None):
         from render.mitsuba_reference.scene import PlanarSampleRenderer  # imports Mitsuba
 
         self.cfg = cfg
@@ -93,7 +96,7 @@ class TaskRenderer:
             self._probes[path] = self.inputs[path]() if self.inputs else load_probe(path)
         return self._probes[path]
 
-    def render(self, task):
+    def render(self, task: Task) -> "TaskResult":
         """Render ``task``; returns its TaskResult (nothing is written)."""
         cfg = self.cfg
         svbrdf, probe = self._material(task.material), self._probe(task.probe)
@@ -147,7 +150,7 @@ class TaskResult:
     """Per sample, the arrays of its .npz file."""
 
 
-def write_task(out, result):
+def write_task(out: str | Path, result: TaskResult) -> int:
     """Write a task's samples, then its marker (so a marker means the task is complete);
     returns the number of samples."""
     for record, arrays in zip(result.records, result.arrays):

@@ -24,6 +24,7 @@ Mapping of the reduced model (docs/gltf.md gives the reasoning and the known dif
 """
 
 import io
+from pathlib import Path
 
 import numpy as np
 import pygltflib
@@ -31,6 +32,7 @@ from PIL import Image
 
 from render.common.atomic_files import atomic_path
 from render.common.color import normal_to_png_bytes, to_png_bytes
+from render.materials.reduced_svbrdf import ReducedSVBRDF
 
 DIELECTRIC_F0 = 0.04
 """glTF's dielectric reflectance at normal incidence with the default IOR 1.5."""
@@ -43,7 +45,7 @@ _TANGENTS = np.tile(np.array([1, 0, 0, 1], np.float32), (4, 1))
 _INDICES = np.array([0, 1, 2, 0, 2, 3], np.uint16)
 
 
-def gltf_parameters(svbrdf):
+def gltf_parameters(svbrdf: ReducedSVBRDF) -> dict:
     """The glTF values of the module docstring's mapping: dict of base_color (H, W, 3) linear
     in [0, 1], specular_color_factor (3,), roughness_factor, and scale, the common factor the
     albedos were divided by."""
@@ -60,7 +62,7 @@ def _png(pixels_uint8):
     return buffer.getvalue()
 
 
-def write_gltf_file(path, svbrdf):
+def write_gltf_file(path: str | Path, svbrdf: ReducedSVBRDF) -> str | Path:
     """Write ``svbrdf`` (a ReducedSVBRDF) as a glTF 2.0 binary file at ``path`` (atomically);
     returns the path."""
     values = gltf_parameters(svbrdf)

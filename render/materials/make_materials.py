@@ -47,7 +47,7 @@ class MakeMaterialsConfig:
     """Samples per pixel of those renders."""
 
 
-def run(cfg):
+def run(cfg: MakeMaterialsConfig) -> dict:
     """Write the sets of ``cfg`` that are not there yet and a contact sheet of the first few;
     returns a summary (counts, time, the contact sheet's path)."""
     out = require_output_folder(cfg.out)

@@ -28,7 +28,7 @@ DIRECTX_TOKENS = {"nor_dx", "normal_dx", "nrm_dx", "normaldx"}
 _TRAILING = re.compile(r"^(\d+k|\d+px|\d+)$")
 
 
-def tokens(path):
+def tokens(path: str | Path) -> list[str]:
     """Name tokens of a file, without trailing resolution/variant tokens."""
     parts = [t for t in re.split(r"[_\-.\s]+", Path(path).stem.lower()) if t]
     while len(parts) > 1 and _TRAILING.match(parts[-1]):
@@ -36,7 +36,7 @@ def tokens(path):
     return parts
 
 
-def map_role(path):
+def map_role(path: str | Path) -> str | None:
     """The role of a map file ('albedo', 'normal', ..., 'ignored') or None if unrecognized."""
     parts = tokens(path)
     candidates = ["_".join(parts[-2:])] if len(parts) >= 2 else []
@@ -48,7 +48,7 @@ def map_role(path):
     return None
 
 
-def is_directx_normal(path):
+def is_directx_normal(path: str | Path) -> bool:
     """True when the name marks a DirectX-style (green = down) normal map."""
     parts = tokens(path)
     return "_".join(parts[-2:]) in DIRECTX_TOKENS or (parts and parts[-1] in DIRECTX_TOKENS)

@@ -6,18 +6,22 @@ render under a probe (auto-exposed, clamped), labelled with the name, specular a
 roughness.
 """
 
+from pathlib import Path
+
 import numpy as np
 from PIL import Image, ImageDraw
 
 from render.common.atomic_files import atomic_path
 from render.common.color import normal_to_png_bytes, to_png_bytes
 from render.common.labels import relative_labels
+from render.materials.reduced_svbrdf import ReducedSVBRDF
 
 TILE = 160
 LABEL_HEIGHT = 14
 
 
-def write_material_sheet(path, svbrdfs, renders=None):
+def write_material_sheet(path: str | Path, svbrdfs: list[ReducedSVBRDF],
+                         renders: list[np.ndarray] | None = None) -> None:
     """``svbrdfs``: ReducedSVBRDFs; ``renders``: matching exposed LDR images, or None."""
     columns = 3 if renders is None else 4
     sheet = Image.new("RGB", (columns * TILE, len(svbrdfs) * (TILE + LABEL_HEIGHT)), "white")

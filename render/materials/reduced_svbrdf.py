@@ -1,8 +1,8 @@
 """Material folders to the paper's reduced SVBRDF.
 
 A material folder holds texture maps in metallic-roughness form (the form users have), found
-by name (``render.materials.map_names``) or named in an optional ``material.json`` (keys below). The
-conversion to the reduced Ward model is documented in docs/conventions.md:
+by name (``render.materials.map_names``) or named in an optional ``material.json`` (keys
+below). The conversion to the reduced Ward model is documented in docs/conventions.md:
 
     rho_d(x)  = max(C(x) (1 - m(x)), MIN_DIFFUSE_ALBEDO)       per pixel, linear RGB
     rho_s     = mean_x [0.04 (1 - m(x)) + C(x) m(x)]           homogeneous, linear RGB
@@ -71,7 +71,7 @@ class ReducedSVBRDF:
     material_class: str | None = None
 
 
-def find_materials(folder):
+def find_materials(folder: str | Path) -> list[Path]:
     """Sorted material sub-folders of ``folder``."""
     folder = require_folder(folder, "folder of material folders")
     subfolders = sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith("."))
@@ -80,7 +80,7 @@ def find_materials(folder):
     return subfolders
 
 
-def load_material(folder):
+def load_material(folder: str | Path) -> ReducedSVBRDF:
     """Read one material folder and convert it to a ReducedSVBRDF."""
     folder = Path(folder)
     spec = _read_material_json(folder)
@@ -104,7 +104,8 @@ def load_material(folder):
         roughness = 1.0 - maps["glossiness"][..., 0]
 
     albedo = np.maximum(base * (1.0 - metallic[..., None]), MIN_DIFFUSE_ALBEDO)
-    specular = (DIELECTRIC_F0 * (1.0 - metallic[..., None]) + base * metallic[..., None]).mean((0, 1))
+    specular = (DIELECTRIC_F0 * (1.0 - metallic[..., None])
+                + base * metallic[..., None]).mean((0, 1))
     alpha = float(np.mean(roughness.astype(np.float64) ** 2))
     if "specular_albedo" in spec:
         specular = _specular_override(folder, spec["specular_albedo"])
@@ -220,7 +221,7 @@ def _specular_override(folder, value):
     return np.array([_number(folder, "specular_albedo", v) for v in values], np.float32)
 
 
-def decode_normal_map(path, pixels, directx):
+def decode_normal_map(path: str | Path, pixels: np.ndarray, directx: bool) -> np.ndarray:
     """Encoded normal map (values in [0, 1], or raw [-1, 1] in float files) to unit normals."""
     if pixels.shape[2] != 3:
         raise InputError(path, f"normal map must be RGB (got {pixels.shape[2]} channel)")
@@ -231,7 +232,7 @@ def decode_normal_map(path, pixels, directx):
     return (normal / np.linalg.norm(normal, axis=2, keepdims=True)).astype(np.float32)
 
 
-def resample(svbrdf, short_side):
+def resample(svbrdf: ReducedSVBRDF, short_side: int) -> ReducedSVBRDF:
     """The same material with maps resampled so that their shorter side is ``short_side``.
 
     Downsampling averages pixel areas (box filter), upsampling interpolates bilinearly;
@@ -248,7 +249,7 @@ def resample(svbrdf, short_side):
                          svbrdf.roughness, svbrdf.sources, svbrdf.material_class)
 
 
-def write_material(folder, svbrdf, metadata):
+def write_material(folder: str | Path, svbrdf: ReducedSVBRDF, metadata: dict) -> None:
     """Write ``svbrdf`` as a material folder that ``load_material`` reads back unchanged.
 
     ``albedo.exr`` holds the linear diffuse albedo, ``normal.exr`` the normals encoded as

@@ -8,6 +8,7 @@ import glob
 import importlib
 import os
 import re
+from types import ModuleType
 
 DEFAULT_VARIANT = "llvm_ad_rgb"
 MIN_LLVM_MAJOR = 16  # drjit 1.5 crashes in `fminimum` with libLLVM 15
@@ -29,7 +30,7 @@ def _newest_libllvm():
     return best[1] if best else None
 
 
-def load_mitsuba(variant=DEFAULT_VARIANT, threads=None):
+def load_mitsuba(variant: str = DEFAULT_VARIANT, threads: int | None = None) -> ModuleType:
     """Import Mitsuba, set ``variant``, register ``sa_ward``; returns the ``mitsuba`` module.
 
     ``threads`` limits Dr.Jit's CPU thread pool (used when several worker processes share the

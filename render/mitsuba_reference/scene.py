@@ -5,14 +5,21 @@ are HDR linear RGB radiance, (H, W, 3) float32, row 0 at the top, in texture spa
 (row, col) is the radiance leaving texel (row, col) toward the view direction.
 """
 
+from __future__ import annotations
+
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from render.common.images import write_exr
 from render.common.package_data import SCENES, installed_file
 from render.mitsuba_reference.loading import load_mitsuba
+
+if TYPE_CHECKING:
+    from render.common.probes import Probe
 
 SCENE_FILE = installed_file(SCENES, "planar_sample.xml")
 DEFAULT_SAMPLER = "multijitter"
@@ -33,14 +40,14 @@ _ENVMAP_TO_WORLD = np.array([[0, 0, -1, 0], [-1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 
 _CAMERA_DISTANCE = 10.0
 
 
-def probe_to_world(rotation_deg):
+def probe_to_world(rotation_deg: float) -> np.ndarray:
     """4x4 to_world matrix of Mitsuba's envmap for a probe rotated by ``rotation_deg`` about +z."""
     c, s = np.cos(np.radians(rotation_deg)), np.sin(np.radians(rotation_deg))
     rotation = np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
     return rotation @ _ENVMAP_TO_WORLD
 
 
-def camera_to_world(view):
+def camera_to_world(view: np.ndarray | Sequence[float]) -> np.ndarray:
     """Orthographic camera looking along -view whose film maps one pixel to one texel.
 
     Mitsuba's camera-local x points to the image's left, y up and z forward. Local (x, y, 0)
@@ -58,7 +65,7 @@ def camera_to_world(view):
     return matrix
 
 
-def matrix_text(matrix):
+def matrix_text(matrix: np.ndarray) -> str:
     return " ".join(repr(float(v)) for v in np.asarray(matrix).ravel())
 
 
@@ -73,7 +80,8 @@ class PlanarSampleRenderer:
     result is the same as a scene built from scratch for every strip.
     """
 
-    def __init__(self, variant="llvm_ad_rgb", spp=1024, sampler=DEFAULT_SAMPLER, threads=None):
+    def __init__(self, variant: str = "llvm_ad_rgb", spp: int = 1024,
+                 sampler: str = DEFAULT_SAMPLER, threads: int | None = None):
         self.mi = load_mitsuba(variant, threads)
         self.spp = spp
         self.sampler = sampler
@@ -107,7 +115,9 @@ class PlanarSampleRenderer:
             self._scenes[key] = (scene, self.mi.traverse(scene))
         return self._scenes[key]
 
-    def render(self, svbrdf, probe, rotation_deg=0.0, view=(0.0, 0.0, 1.0), seed=0, spp=None):
+    def render(self, svbrdf: Any, probe: Probe, rotation_deg: float = 0.0,
+               view: np.ndarray | Sequence[float] = (0.0, 0.0, 1.0), seed: int = 0,
+               spp: int | None = None) -> np.ndarray:
         """HDR radiance (H, W, 3) of ``svbrdf`` under ``probe`` rotated by ``rotation_deg``."""
         mi = self.mi
         spp = spp or self.spp

@@ -11,8 +11,11 @@ registered::
     image = mi.render(mi.load_file("scene.xml"))
 """
 
+from __future__ import annotations
+
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,13 +23,16 @@ from render.common.atomic_files import atomic_path
 from render.common.images import write_exr
 from render.mitsuba_reference.scene import SCENE_FILE, matrix_text, probe_to_world
 
+if TYPE_CHECKING:
+    from render.common.probes import Probe
+
 DEFAULT = re.compile(r'<default name="(\w+)" value="[^"]*"/>')
 
 
-def write_scene_file(folder, svbrdf, probe, spp=256):
+def write_scene_file(folder: str | Path, svbrdf: Any, probe: Probe, spp: int = 256) -> Path:
     """Write ``scene.xml``, its textures (``mitsuba_albedo.exr``, ``mitsuba_normal.exr``) and
-    ``mitsuba_probe.exr`` (a render.common.probes.Probe's white-balanced radiance) into ``folder``;
-    returns the scene file's path."""
+    ``mitsuba_probe.exr`` (a render.common.probes.Probe's white-balanced radiance) into
+    ``folder``; returns the scene file's path."""
     folder = Path(folder)
     height, width = svbrdf.albedo.shape[:2]
     write_exr(folder / "mitsuba_albedo.exr", np.flipud(svbrdf.albedo))

@@ -19,6 +19,10 @@ importance sampling of the Ward half-vector distribution, p(h) = exp(-tan^2 d / 
 Import this module only after a Mitsuba variant is set (``render.mitsuba_reference.loading``).
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
+
 import drjit as dr
 import mitsuba as mi
 
@@ -28,7 +32,7 @@ PLUGIN_NAME = "sa_ward"
 class WardSVBRDF(mi.BSDF):
     """Per-pixel diffuse albedo and normal, homogeneous Ward specular lobe."""
 
-    def __init__(self, props):
+    def __init__(self, props: mi.Properties):
         mi.BSDF.__init__(self, props)
         self.albedo = props.get_texture("albedo")
         self.normal = props.get_unbounded_texture("normal")
@@ -76,16 +80,21 @@ class WardSVBRDF(mi.BSDF):
         return self._eval_pdf_local(albedo, frame.to_local(si.wi), frame.to_local(wo),
                                     wo.z, si.wi.z, self._spec_probability(albedo))
 
-    def eval(self, ctx, si, wo, active=True):
+    def eval(self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, wo: mi.Vector3f,
+             active: bool | mi.Bool = True) -> mi.Color3f:
         return self._evaluate(si, wo, active)[0]
 
-    def pdf(self, ctx, si, wo, active=True):
+    def pdf(self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, wo: mi.Vector3f,
+            active: bool | mi.Bool = True) -> mi.Float:
         return self._evaluate(si, wo, active)[1]
 
-    def eval_pdf(self, ctx, si, wo, active=True):
+    def eval_pdf(self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, wo: mi.Vector3f,
+                 active: bool | mi.Bool = True) -> tuple[mi.Color3f, mi.Float]:
         return self._evaluate(si, wo, active)
 
-    def sample(self, ctx, si, sample1, sample2, active=True):
+    def sample(self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, sample1: mi.Float,
+               sample2: mi.Point2f,
+               active: bool | mi.Bool = True) -> tuple[mi.BSDFSample3f, mi.Color3f]:
         frame = self._shading_frame(si, active)
         albedo = self.albedo.eval(si, active)
         p_spec = self._spec_probability(albedo)
@@ -113,19 +122,19 @@ class WardSVBRDF(mi.BSDF):
         weight = dr.select(pdf > 0, value / pdf, 0.0)
         return bs, weight & active
 
-    def traverse(self, callback):
+    def traverse(self, callback: mi.TraversalCallback) -> None:
         callback.put("specular", self.specular, mi.ParamFlags.NonDifferentiable)
         callback.put("alpha", self.alpha, mi.ParamFlags.NonDifferentiable)
         callback.put("albedo", self.albedo, mi.ParamFlags.NonDifferentiable)
         callback.put("normal", self.normal, mi.ParamFlags.NonDifferentiable)
 
-    def parameters_changed(self, keys):
+    def parameters_changed(self, keys: Sequence[str]) -> None:
         dr.make_opaque(self.specular, self.alpha)
 
-    def to_string(self):
+    def to_string(self) -> str:
         return f"WardSVBRDF[specular={self.specular}, alpha={self.alpha}]"
 
 
-def register():
+def register() -> None:
     """Make ``<bsdf type="sa_ward">`` available to Mitsuba's loaders."""
     mi.register_bsdf(PLUGIN_NAME, lambda props: WardSVBRDF(props))

@@ -12,6 +12,7 @@ and a random view within ``max_view_angle``. Errors, per case:
 
 import dataclasses
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,9 +24,10 @@ from render.common.atomic_files import write_json
 from render.common.errors import require_output_folder
 from render.common.exposure import expose_numpy
 from render.common.images import write_png
-from render.common.probes import find_probes, load_probe
+from render.common.probes import Probe, find_probes, load_probe
 from render.common.views import random_view
-from render.materials.reduced_svbrdf import find_materials, load_material, resample
+from render.materials.reduced_svbrdf import (ReducedSVBRDF, find_materials, load_material,
+                                             resample)
 from render.torch_renderer.renderer import ProbeBank, render
 
 DEFAULT_ROUGHNESS = (0.02, 0.05, 0.1, 0.2, 0.5, 1.0)
@@ -64,7 +66,9 @@ class Case:
     view: np.ndarray
 
 
-def make_cases(materials, probes, roughness_values, max_view_angle, seed):
+def make_cases(materials: list[ReducedSVBRDF], probes: list[Probe],
+               roughness_values: Sequence[float], max_view_angle: float,
+               seed: int) -> list[Case]:
     """One case per (material, probe) pair, see the module docstring."""
     rng = np.random.default_rng(seed)
     brightest = max((m.specular for m in materials), key=lambda s: float(np.mean(s)))
@@ -78,12 +82,12 @@ def make_cases(materials, probes, roughness_values, max_view_angle, seed):
     return cases
 
 
-def psnr(a, b):
+def psnr(a: np.ndarray, b: np.ndarray) -> float:
     """PSNR in dB of two images in [0, 1]."""
     return float(10 * np.log10(1.0 / max(float(np.mean((a - b) ** 2)), 1e-20)))
 
 
-def square_crop(svbrdf, size):
+def square_crop(svbrdf: ReducedSVBRDF, size: int) -> tuple[np.ndarray, np.ndarray]:
     """The material resampled to ``size`` on its short side and cut to its central square."""
     svbrdf = resample(svbrdf, size)
     top = (svbrdf.albedo.shape[0] - size) // 2
@@ -92,7 +96,8 @@ def square_crop(svbrdf, size):
     return svbrdf.albedo[window], svbrdf.normal[window]
 
 
-def render_torch(cases, bank, maps, batch_size):
+def render_torch(cases: list[Case], bank: ProbeBank,
+                 maps: list[tuple[np.ndarray, np.ndarray]], batch_size: int) -> np.ndarray:
     """Torch renders of all cases, (N, H, W, 3) float32, in batches."""
     images = []
     for start in range(0, len(cases), batch_size):
@@ -109,8 +114,10 @@ def render_torch(cases, bank, maps, batch_size):
     return np.concatenate(images)
 
 
-def compare(probes_dir, svbrdfs_dir, size=64, spp=1024, roughness=DEFAULT_ROUGHNESS,
-            max_view_angle=0.0, seed=0, out=None, batch_size=16, progress=True):
+def compare(probes_dir: str | Path, svbrdfs_dir: str | Path, size: int = 64, spp: int = 1024,
+            roughness: Sequence[float] = DEFAULT_ROUGHNESS, max_view_angle: float = 0.0,
+            seed: int = 0, out: str | Path | None = None, batch_size: int = 16,
+            progress: bool = True) -> dict:
     """Render every case both ways; the report (dict) with per-case rows and the worst case."""
     from render.mitsuba_reference.scene import PlanarSampleRenderer  # Mitsuba is needed here only
 
@@ -158,7 +165,7 @@ def compare(probes_dir, svbrdfs_dir, size=64, spp=1024, roughness=DEFAULT_ROUGHN
     return report
 
 
-def run(cfg):
+def run(cfg: CheckConfig) -> dict:
     """``check-renderer``: ``compare`` on the cases of ``cfg``; its report."""
     if cfg.out is not None:
         require_output_folder(cfg.out)

@@ -42,6 +42,7 @@ docs/torch-renderer.md.
 """
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import torch
@@ -70,7 +71,8 @@ class ProbeBank:
     balanced here exactly as ``render.common.probes.load_probe`` does).
     """
 
-    def __init__(self, radiances, device="cpu", dtype=torch.float32):
+    def __init__(self, radiances: Sequence[np.ndarray], device: str | torch.device = "cpu",
+                 dtype: torch.dtype = torch.float32):
         radiances = [np.asarray(r, np.float64) for r in radiances]
         shapes = {r.shape for r in radiances}
         if len(shapes) != 1:
@@ -86,7 +88,7 @@ class ProbeBank:
     def _tensor(self, array):
         return torch.as_tensor(np.ascontiguousarray(array), dtype=self.dtype, device=self.device)
 
-    def nodes(self, factor):
+    def nodes(self, factor: int) -> tuple[torch.Tensor, torch.Tensor]:
         """Quadrature nodes at ``factor`` times the probe resolution: energies (P, N, 3) and
         directions (N, 3). Cached."""
         if factor not in self._nodes:
@@ -95,7 +97,7 @@ class ProbeBank:
                                    self._tensor(directions.reshape(-1, 3)))
         return self._nodes[factor]
 
-    def blocks(self, size):
+    def blocks(self, size: int) -> tuple[torch.Tensor, torch.Tensor]:
         """The probe's nodes gathered in size x size blocks: energies (P, N, 3) and
         luminance-weighted mean directions (P, N, 3). Cached."""
         if size not in self._blocks:
@@ -147,18 +149,18 @@ def _blocks(energy, directions, size):
     return block_energy.reshape(count, -1, 3), mean.reshape(count, -1, 3)
 
 
-def stereographic(n):
+def stereographic(n: torch.Tensor) -> torch.Tensor:
     """Unit vectors (..., 3) with z > -1 to stereographic coordinates (..., 2)."""
     return n[..., :2] / (1 + n[..., 2:3])
 
 
-def inverse_stereographic(p):
+def inverse_stereographic(p: torch.Tensor) -> torch.Tensor:
     """Stereographic coordinates (..., 2) to unit vectors (..., 3)."""
     q = (p * p).sum(-1, keepdim=True)
     return torch.cat([2 * p, 1 - q], -1) / (1 + q)
 
 
-def rotate_z(vectors, rotation_deg):
+def rotate_z(vectors: torch.Tensor, rotation_deg: torch.Tensor) -> torch.Tensor:
     """Rotate (B, N, 3) vectors counter-clockwise about +z by (B,) degrees."""
     angle = torch.deg2rad(rotation_deg)[:, None]
     c, s = torch.cos(angle), torch.sin(angle)
@@ -166,7 +168,8 @@ def rotate_z(vectors, rotation_deg):
     return torch.stack([c * x - s * y, s * x + c * y, z], -1)
 
 
-def ward_kernel(cos_h, cos_i, cos_o, alpha):
+def ward_kernel(cos_h: torch.Tensor, cos_i: torch.Tensor, cos_o: torch.Tensor,
+                alpha: torch.Tensor) -> torch.Tensor:
     """Ward lobe times cosine, f_s cos(theta_i) / rho_s, from the cosines of the half vector,
     the light and the view with the normal; zero where the light or the view is behind the
     normal, and negligible (a relative weight of e^-80) where the half vector is.
@@ -222,7 +225,7 @@ class _Layout:
         self.refinement = factor.clamp(1, MAX_REFINEMENT).long()  # (B,)
 
 
-def block_size(angle, probe_height):
+def block_size(angle: float | torch.Tensor, probe_height: int) -> torch.Tensor:
     """Nodes per side of the probe blocks at most ``angle`` radians wide: a power of two."""
     spacing = math.pi / (probe_height - 1)
     angle = torch.as_tensor(angle, dtype=torch.float64)
@@ -381,8 +384,10 @@ def _touched_entries(coordinates, layout):
     return touched.nonzero()
 
 
-def render(albedo, normal, specular, roughness, probes, probe_index, rotation_deg=None,
-           view=None):
+def render(albedo: torch.Tensor, normal: torch.Tensor, specular: torch.Tensor,
+           roughness: torch.Tensor, probes: ProbeBank, probe_index: torch.Tensor | Sequence[int],
+           rotation_deg: torch.Tensor | None = None,
+           view: torch.Tensor | None = None) -> torch.Tensor:
     """HDR radiance (B, 3, H, W) of reduced SVBRDFs under rotated probes.
 
     albedo: (B, 3, H, W) diffuse albedo, linear RGB. normal: (B, 3, H, W) tangent-space
@@ -451,7 +456,8 @@ def _check_inputs(albedo, normal, specular, roughness, probes, probe_index):
                          f"probes, got {index.tolist()}")
 
 
-def sphere_normals(size, dtype=torch.float32, device="cpu"):
+def sphere_normals(size: int, dtype: torch.dtype = torch.float32,
+                   device: str | torch.device = "cpu") -> tuple[torch.Tensor, torch.Tensor]:
     """Normals (3, size, size) of a sphere seen from +z filling the image, and its mask
     (1, size, size); outside the sphere the normal is +z and the mask 0."""
     coords = (torch.arange(size, dtype=dtype, device=device) + 0.5) / size * 2 - 1

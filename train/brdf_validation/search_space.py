@@ -22,22 +22,22 @@ ROUGHNESS = np.geomspace(0.02, 1.0, 15)
 PATTERN = re.compile(r"^(dense|(\d+)x(\d+)x(\d+)|random-(\d+(?:\.\d+)?))$")
 
 
-def grid(diffuse, specular, roughness):
+def grid(diffuse: np.ndarray, specular: np.ndarray, roughness: np.ndarray) -> np.ndarray:
     """(N, 3) BRDFs of the product of the three value lists, roughness varying fastest."""
     d, s, r = np.meshgrid(diffuse, specular, roughness, indexing="ij")
     return np.stack([d.ravel(), s.ravel(), r.ravel()], -1)
 
 
-def training_brdfs():
+def training_brdfs() -> np.ndarray:
     return grid(DIFFUSE, SPECULAR, ROUGHNESS)
 
 
-def test_brdfs():
+def test_brdfs() -> np.ndarray:
     return grid((DIFFUSE[1:] + DIFFUSE[:-1]) / 2, (SPECULAR[1:] + SPECULAR[:-1]) / 2,
                 np.sqrt(ROUGHNESS[1:] * ROUGHNESS[:-1]))
 
 
-def labeled_mask(pattern, seed=0):
+def labeled_mask(pattern: str, seed: int = 0) -> np.ndarray:
     """Boolean (1500,) mask of the labeled training BRDFs of ``pattern``."""
     match = PATTERN.match(pattern)
     if not match:
@@ -60,12 +60,13 @@ def labeled_mask(pattern, seed=0):
     return mask.ravel()
 
 
-def targets(brdfs):
+def targets(brdfs: np.ndarray) -> np.ndarray:
     """(N, 2) BRDF-net targets: log(diffuse / specular), log(alpha)."""
     return np.stack([np.log(brdfs[:, 0] / brdfs[:, 1]), np.log(brdfs[:, 2])], -1)
 
 
-def random_split(labeled_percent, unlabeled_percent, seed=0):
+def random_split(labeled_percent: float, unlabeled_percent: float,
+                 seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Disjoint random labeled and unlabeled masks over the grid, of the given percentages
     (the paper's labeled-unlabeled ratio table)."""
     if labeled_percent + unlabeled_percent > 100:

@@ -1,10 +1,10 @@
 """``sa-validate``: the paper's validation of self-augmentation on BRDF-net.
 
 Task: a monochrome image of a sphere of one homogeneous Ward BRDF under a monochrome probe ->
-``(log(diffuse / specular), log(alpha))`` (train.brdf_validation.search_space). Spheres are rendered with the
-torch renderer (``render.torch_renderer.renderer.sphere_normals``); probes are reduced to their
-Rec. 709 luminance; each image is auto-exposed and clamped like the dataset's, so only the
-ratio of the albedos is observable.
+``(log(diffuse / specular), log(alpha))`` (train.brdf_validation.search_space). Spheres are
+rendered with the torch renderer (``render.torch_renderer.renderer.sphere_normals``); probes
+are reduced to their Rec. 709 luminance; each image is auto-exposed and clamped like the
+dataset's, so only the ratio of the albedos is observable.
 
 A *lighting* is a (probe, rotation) pair; ``lightings`` of them are drawn once per run. Each
 labeled BRDF is seen under lightings drawn from that set; each unlabeled BRDF, and each test
@@ -30,6 +30,7 @@ import json
 import logging
 import time
 import zlib
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -115,7 +116,8 @@ class SphereRenderer:
     toy configuration tabulates fewer levels and interpolates everything.
     """
 
-    def __init__(self, probe_files, size, lightings, device, alpha_levels=None):
+    def __init__(self, probe_files: Sequence[str | Path], size: int, lightings: np.ndarray,
+                 device: str, alpha_levels: np.ndarray | Sequence[float] | None = None):
         self.alpha_levels = ALPHA_LEVELS if alpha_levels is None else np.asarray(alpha_levels)
         self.log_levels = torch.as_tensor(np.log(self.alpha_levels), dtype=torch.float32)
         radiances = [load_probe(path).radiance for path in probe_files]
@@ -163,7 +165,7 @@ class SphereRenderer:
         return expose((hdr * self.mask).expand(-1, 3, -1, -1))[:, :1]
 
 
-def turned_spheres(normal, angle_deg):
+def turned_spheres(normal: torch.Tensor, angle_deg: np.ndarray | torch.Tensor) -> torch.Tensor:
     """Sphere normals (3, S, S) turned counter-clockwise about +z by each of ``angle_deg``
     (m,) degrees: (m, 3, S, S)."""
     angle = torch.as_tensor(angle_deg, dtype=normal.dtype, device=normal.device)
@@ -172,7 +174,7 @@ def turned_spheres(normal, angle_deg):
     return rotate_z(vectors, angle).transpose(1, 2).reshape(len(angle), 3, size, size)
 
 
-def from_targets(values):
+def from_targets(values: np.ndarray) -> np.ndarray:
     """(N, 2) predicted log(d / s), log(alpha) -> (N, 3) BRDFs with d + s = 1, clamped to the
     search space's range of ratios and roughnesses."""
     ratio_limit = np.log(search_space.DIFFUSE[-1] / search_space.SPECULAR[0])
@@ -181,12 +183,14 @@ def from_targets(values):
     return np.stack([ratio / (1 + ratio), 1 / (1 + ratio), alpha], -1)
 
 
-def random_lightings(rng, count, probes):
+def random_lightings(rng: np.random.Generator, count: int, probes: int) -> np.ndarray:
     """(count, 2) lightings: probe index, rotation in degrees."""
     return np.stack([rng.integers(probes, size=count), rng.uniform(0, 360, count)], -1)
 
 
-def train_run(cfg, renderer, labeled_mask, unlabeled_mask, self_augment, name):
+def train_run(cfg: ValidationConfig, renderer: SphereRenderer, labeled_mask: np.ndarray,
+              unlabeled_mask: np.ndarray, self_augment: bool,
+              name: str) -> tuple[HomogeneousNet, list[tuple[str, float]]]:
     """Train one BRDF-net on the masked training BRDFs; ``name`` seeds its random stream.
     Returns (net, per-iteration losses)."""
     rng = np.random.default_rng([cfg.seed, zlib.crc32(name.encode()), int(self_augment)])
@@ -225,7 +229,8 @@ def train_run(cfg, renderer, labeled_mask, unlabeled_mask, self_augment, name):
     return net, losses
 
 
-def evaluate(cfg, renderer, net):
+def evaluate(cfg: ValidationConfig, renderer: SphereRenderer,
+             net: HomogeneousNet) -> tuple[np.ndarray, np.ndarray]:
     """Per test BRDF: render MSE and parameter MSE, each (N,)."""
     tests = search_space.test_brdfs()
     lightings = np.random.default_rng([cfg.seed, 2]).integers(cfg.lightings, size=len(tests))
@@ -242,12 +247,12 @@ def evaluate(cfg, renderer, net):
     return np.concatenate(render_errors), np.concatenate(parameter_errors)
 
 
-def heat_map(errors):
+def heat_map(errors: np.ndarray) -> np.ndarray:
     """(9, 14) mean error over diffuse x roughness, integrated (averaged) over specular."""
     return errors.reshape(9, 9, 14).mean(1)
 
 
-def make_renderer(cfg):
+def make_renderer(cfg: ValidationConfig) -> SphereRenderer:
     """The run's SphereRenderer: its lightings drawn from the seed."""
     probe_files = find_probes(cfg.probes)
     start = time.perf_counter()
@@ -259,7 +264,9 @@ def make_renderer(cfg):
     return renderer
 
 
-def ratio_table(cfg, renderer, labeled_percents=RATIO_LABELED, unlabeled_percents=RATIO_UNLABELED):
+def ratio_table(cfg: ValidationConfig, renderer: SphereRenderer,
+                labeled_percents: Sequence[float] = RATIO_LABELED,
+                unlabeled_percents: Sequence[float] = RATIO_UNLABELED) -> dict[float, dict]:
     """The paper's labeled-unlabeled ratio table: test render MSE per labeled percentage,
     without self-augmentation and with each unlabeled percentage that fits beside it. Writes
     ratio_table.csv and ratio_table.md; returns {labeled: {"no SA" or unlabeled: MSE}}."""
@@ -292,7 +299,8 @@ def ratio_table(cfg, renderer, labeled_percents=RATIO_LABELED, unlabeled_percent
     return table
 
 
-def run(cfg, patterns=PATTERNS):
+def run(cfg: ValidationConfig,
+        patterns: Sequence[str] = PATTERNS) -> tuple[dict[str, dict], SphereRenderer]:
     """Every run of the protocol; writes the table (CSV, Markdown), heat maps and JSON."""
     out = Path(cfg.out)
     for path in find_probes(cfg.probes):  # bad probes fail before the folder is claimed
@@ -333,7 +341,7 @@ def _pattern_run(cfg, renderer, pattern, self_augment):
             "seconds": round(time.perf_counter() - start, 1)}
 
 
-def finished_run(out, name, compute):
+def finished_run(out: Path, name: str, compute: Callable[[], dict]) -> dict:
     """The result dict of run ``name``: read from ``out/runs/`` when an earlier invocation
     finished it, else ``compute()``d and written there (atomically) first."""
     path = out / "runs" / f"{name.replace(' ', '_')}.json"

@@ -29,7 +29,8 @@ from train.networks.model_files import SHIPPED
 @click.option("--max-side", type=int, default=MAX_SIDE, show_default=True,
               help="Longest side of the albedo and normal maps (px).")
 @click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
-def main(photos, model, material_class, out, probes, max_side, device):
+def main(photos: tuple[str, ...], model: str | None, material_class: str, out: str,
+         probes: tuple[str, ...], max_side: int, device: str) -> None:
     """Estimate the reduced SVBRDF of each PHOTO."""
     try:
         cfg = EstimateConfig(photos, out, tuple(probes) or DEFAULT_PROBES)

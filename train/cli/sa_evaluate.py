@@ -1,6 +1,7 @@
 """Command line of ``sa-evaluate``: parse options, build an EvaluationConfig, call run(cfg)."""
 
 import json
+from typing import Any
 
 import click
 
@@ -34,7 +35,7 @@ from train.networks.model_files import SHIPPED
 @click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
 @click.option("--per-sample/--means-only", default=False, show_default=True,
               help="Print every sample's errors too (results.json always has them).")
-def main(model, material_class, per_sample, **options):
+def main(model: str | None, material_class: str, per_sample: bool, **options: Any) -> None:
     """Evaluate MODEL's estimates against the truth and the naive baseline; JSON on stdout."""
     try:
         cfg = EvaluationConfig(**options)

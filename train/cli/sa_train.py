@@ -4,6 +4,7 @@ import dataclasses
 import json
 import logging
 import os
+from typing import Any
 
 import click
 
@@ -51,7 +52,8 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
 @click.option("--unlabeled", type=click.Path(), default=None,
               help="Unlabeled photos (or a dataset folder); without it: the baseline.")
 @click.option("--network", "network_name", type=click.Choice(sorted(NETWORKS)), default="paper",
-              show_default=True, help="Network size preset (compact: the shipped models; small: trains on a CPU).")
+              show_default=True, help="Network size preset (compact: the shipped models; "
+                                      "small: trains on a CPU).")
 @click.option("--input-size", type=int, default=None, help="Override the preset's input size.")
 @click.option("--width", type=int, default=None, help="Override the preset's first width.")
 @click.option("--levels", type=int, default=None, help="Override the preset's levels.")
@@ -99,8 +101,9 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
 @click.option("--checkpoint-every", default=500, show_default=True)
 @click.option("--log-every", default=50, show_default=True)
 @click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
-def main(network_name, input_size, width, levels, homogeneous_pooling, albedo_network,
-         learning_rate, lr_gamma, train_networks, crop_scales, **options):
+def main(network_name: str, input_size: int | None, width: int | None, levels: int | None,
+         homogeneous_pooling: str | None, albedo_network: str | None, learning_rate: float,
+         lr_gamma: float, train_networks: str, crop_scales: str, **options: Any) -> None:
     """Train SVBRDF-net, with self-augmentation when unlabeled photos are given."""
     main_process = os.environ.get("RANK", "0") == "0"  # under torchrun, only rank 0 logs
     logging.basicConfig(level=logging.INFO if main_process else logging.WARNING,

@@ -29,7 +29,8 @@ from train.brdf_validation.validation import (
               help="Also the labeled-unlabeled ratio table (55 more runs).")
 @click.option("--seed", default=0, show_default=True)
 @click.option("--device", default="cpu", show_default=True)
-def main(probes, out, configuration, patterns, ratio_table_too, seed, device):
+def main(probes: str, out: str, configuration: str, patterns: str, ratio_table_too: bool,
+         seed: int, device: str) -> None:
     """Validate self-augmentation on BRDF-net, as in the paper."""
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
     cfg = ValidationConfig(probes=probes, out=out, seed=seed, device=device,

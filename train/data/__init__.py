@@ -1,1 +1,2 @@
-"""Data for training: labeled datasets, labeled maps rendered on the fly, photos, unlabeled images."""
+"""Data for training: labeled datasets, labeled maps rendered on the fly, photos, unlabeled
+images."""

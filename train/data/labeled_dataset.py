@@ -6,6 +6,7 @@ log_roughness (1,); plus the sample's provenance dict.
 """
 
 import json
+from pathlib import Path
 
 import numpy as np
 
@@ -17,7 +18,7 @@ ARRAYS = ("image", "albedo", "normal", "log_specular", "log_roughness")
 class LabeledDataset:
     """Samples of one split ('train', 'test' or None for all) of a dataset folder."""
 
-    def __init__(self, folder, split="train"):
+    def __init__(self, folder: str | Path, split: str | None = "train"):
         self.folder = require_folder(folder, "dataset folder")
         index_path = self.folder / "index.json"
         if not index_path.is_file():

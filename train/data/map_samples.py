@@ -38,6 +38,8 @@ computed.
 """
 
 import dataclasses
+from collections.abc import Callable, Sequence
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -46,14 +48,16 @@ from render.common.exposure import expose
 from render.common.labels import relative_labels, rotate_quarter_turns
 from render.common.views import random_view
 from render.materials.reduced_svbrdf import find_materials, load_material, resample
-from render.torch_renderer.renderer import render
+from render.torch_renderer.renderer import ProbeBank, render
 
 
 class MapSampler:
     """Random labeled samples of the materials in ``folder`` (one sub-folder per material)."""
 
-    def __init__(self, folder, probes, probe_choices, size, render_size, max_view_angle=0.0,
-                 crop_scales=(1,), mix_specular=False):
+    def __init__(self, folder: str | Path, probes: ProbeBank,
+                 probe_choices: Sequence[int] | np.ndarray, size: int, render_size: int,
+                 max_view_angle: float = 0.0, crop_scales: Sequence[int] = (1,),
+                 mix_specular: bool = False):
         if not crop_scales or any(int(k) != k or k < 1 for k in crop_scales):
             raise ValueError(f"crop scales {list(crop_scales)} are not whole numbers >= 1")
         if render_size < size * max(crop_scales):
@@ -67,7 +71,7 @@ class MapSampler:
         self.materials = [_half_precision(resample(load_material(path), render_size))
                           for path in find_materials(folder)]
 
-    def log_specular_range(self):
+    def log_specular_range(self) -> tuple[float, float]:
         """(lowest, highest) log relative specular albedo over the materials, each taken
         relative to its whole map (a crop's scale differs a little); with ``mix_specular``,
         over every pairing of one material's specular albedo with another's albedo."""
@@ -78,7 +82,9 @@ class MapSampler:
         values = pairings if self.mix_specular else np.diagonal(pairings, axis1=0, axis2=2)
         return float(values.min()), float(values.max())
 
-    def batch(self, rng, count, shard=list):
+    def batch(self, rng: np.random.Generator, count: int,
+              shard: Callable[[list[int]], list[int]] = list
+              ) -> dict[str, torch.Tensor | list[dict]]:
         """A dict of float32 tensors on the probes' device: image, albedo, normal
         (n, 3, size, size); log_specular (n, 3); log_roughness (n, 1); and ``provenance``,
         a list of dicts (material, specular_from (the material whose specular albedo and

@@ -20,6 +20,8 @@ centre square would see a sliver of it); render.common.images.read_image refuses
 its pixel limit before decoding them.
 """
 
+from pathlib import Path
+
 import numpy as np
 
 from render.common.errors import InputError
@@ -32,19 +34,19 @@ MAX_PHOTO_ASPECT = 4.0
 """Largest ratio of a photo's longer side to its shorter side."""
 
 
-def read_photo(path, size):
+def read_photo(path: str | Path, size: int) -> np.ndarray:
     """(3, size, size) float32 linear RGB in [0, 1], by the rule in the module docstring."""
     return network_view(read_linear_photo(path), size)
 
 
-def network_view(pixels, size):
+def network_view(pixels: np.ndarray, size: int) -> np.ndarray:
     """Steps 3 and 4 of the rule: (H, W, 3) linear pixels -> (3, size, size), the centred
     square resized and clamped to [0, 1], channels first."""
     square = np.clip(resize(centre_square(pixels), size, size), 0, 1)
     return np.ascontiguousarray(square.transpose(2, 0, 1))
 
 
-def read_linear_photo(path):
+def read_linear_photo(path: str | Path) -> np.ndarray:
     """The whole photo as (H, W, 3) float32 linear RGB (steps 1 and 2 of the rule; not
     clamped)."""
     pixels = read_image(path)
@@ -71,7 +73,7 @@ def read_linear_photo(path):
     return pixels
 
 
-def centre_square(pixels):
+def centre_square(pixels: np.ndarray) -> np.ndarray:
     """The centred square of the shorter side of (H, W, C) pixels."""
     height, width = pixels.shape[:2]
     side = min(height, width)

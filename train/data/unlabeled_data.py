@@ -18,7 +18,7 @@ from train.data.photos import read_photo
 class UnlabeledImages:
     """(3, size, size) linear RGB network inputs, by index."""
 
-    def __init__(self, folder, size):
+    def __init__(self, folder: str | Path, size: int):
         self.folder, self.size = Path(folder), size
         if not self.folder.is_dir():
             raise InputError(self.folder, "unlabeled folder not found")
@@ -37,7 +37,7 @@ class UnlabeledImages:
     def __len__(self):
         return len(self.paths) if self.dataset is None else len(self.dataset)
 
-    def image(self, index):
+    def image(self, index: int) -> np.ndarray:
         if self.dataset is None:
             return read_photo(self.paths[index], self.size)
         image = self.dataset[index]["image"]
@@ -46,6 +46,6 @@ class UnlabeledImages:
                                           f"; the network takes {self.size}x{self.size}")
         return image
 
-    def average_colors(self):
+    def average_colors(self) -> np.ndarray:
         """(N, 3) mean linear RGB of every image."""
         return np.stack([self.image(i).mean((1, 2)) for i in range(len(self))])

@@ -12,13 +12,15 @@ bins without labeled images are left out, and labeled bins without photos are ig
 import numpy as np
 
 
-def color_bins(average_colors, bins):
+def color_bins(average_colors: np.ndarray, bins: int) -> np.ndarray:
     """Histogram bin index of each (N, 3) average color."""
     cells = np.clip((np.asarray(average_colors) * bins).astype(int), 0, bins - 1)
     return (cells[:, 0] * bins + cells[:, 1]) * bins + cells[:, 2]
 
 
-def select_matching(labeled_colors, unlabeled_colors, rng, bins=4, limit=None):
+def select_matching(labeled_colors: np.ndarray, unlabeled_colors: np.ndarray,
+                    rng: np.random.Generator, bins: int = 4,
+                    limit: int | None = None) -> np.ndarray:
     """Indices into ``unlabeled_colors`` of a subset whose color histogram follows the labeled
     one, over the bins that hold both labeled and unlabeled images. Raises ValueError when no
     bin does."""

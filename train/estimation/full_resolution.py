@@ -18,10 +18,10 @@ convolutional, so they can also run on other sizes; the maps here come from two 
    overview's size and up is bilinear. So the maps, averaged down to the overview's size,
    agree with the overview.
 
-A photo-affine albedo network (train.networks.svbrdf_net.PhotoAffineAlbedoNet) needs none of this: its
-albedo is the photo less an offset, pixel by pixel, so the whole photo at output resolution
-loses the offset predicted for its network-size view (the centre square at S x S, as
-the estimate sees it); only the normals go through steps 1 to 3. Its AlbedoCorrection, where
+A photo-affine albedo network (train.networks.svbrdf_net.PhotoAffineAlbedoNet) needs none of
+this: its albedo is the photo less an offset, pixel by pixel, so the whole photo at output
+resolution loses the offset predicted for its network-size view (the centre square at S x S,
+as the estimate sees it); only the normals go through steps 1 to 3. Its AlbedoCorrection, where
 it has one, was fit at the network's scale: it reads the overview's photo-affine albedo, and
 its log gain, upsampled bilinearly, multiplies the full-resolution albedo (scaled to mean 0.5
 again). For a square photo of S x S pixels, both are the network-size estimate's albedo.
@@ -43,7 +43,7 @@ from torch.nn import functional
 
 from render.common.images import resize
 from train.data.photos import network_view
-from train.networks.svbrdf_net import decode_normal
+from train.networks.svbrdf_net import SVBRDFNet, decode_normal
 
 MAX_SIDE = 2048
 """Default longest side of the full-resolution maps (px)."""
@@ -53,7 +53,8 @@ TILE_BATCH = 4
 """Detail tiles run together."""
 
 
-def full_resolution_maps(net, linear_photo, max_side=MAX_SIDE, overlap=TILE_OVERLAP):
+def full_resolution_maps(net: SVBRDFNet, linear_photo: np.ndarray, max_side: int = MAX_SIDE,
+                         overlap: int = TILE_OVERLAP) -> tuple[np.ndarray, np.ndarray]:
     """(albedo, normal), each (H', W', 3) float32, of ``linear_photo`` (H, W, 3) by the
     module docstring's rule; (H', W') is (H, W) scaled so that the longer side is at most
     ``max_side``."""
@@ -73,7 +74,7 @@ def full_resolution_maps(net, linear_photo, max_side=MAX_SIDE, overlap=TILE_OVER
                  for name in ("albedo", "normal"))
 
 
-def photo_affine_albedo_map(net, photo):
+def photo_affine_albedo_map(net: SVBRDFNet, photo: np.ndarray) -> torch.Tensor:
     """(1, 3, H, W): the (H, W, 3) photo's albedo by a photo-affine albedo network, its
     offset read on the photo's network-size view (its centre square at S x S), its
     AlbedoCorrection (where it has one) on the overview (SVBRDFNet.full_resolution_albedo)."""
@@ -87,7 +88,7 @@ def photo_affine_albedo_map(net, photo):
     return net.full_resolution_albedo(tensor(photo), view, tensor(overview)).cpu()
 
 
-def overview_photo(photo, input_size, multiple):
+def overview_photo(photo: np.ndarray, input_size: int, multiple: int) -> np.ndarray:
     """(H, W, 3) -> (h, w, 3): the shorter side ``input_size``, the longer one in proportion,
     rounded to a multiple of ``multiple``."""
     height, width = photo.shape[:2]
@@ -96,7 +97,7 @@ def overview_photo(photo, input_size, multiple):
     return np.clip(resize(photo, *sides), 0.0, 1.0)
 
 
-def map_networks(net, photos):
+def map_networks(net: SVBRDFNet, photos: np.ndarray) -> dict[str, torch.Tensor]:
     """(B, H, W, 3) photos, sides multiples of 2^levels -> dict of the maps of the U-Net
     networks, each (B, 3, H, W) on the CPU: normal, and albedo unless the albedo network is
     photo-affine (whose albedo photo_affine_albedo_map makes)."""
@@ -108,7 +109,7 @@ def map_networks(net, photos):
     return maps
 
 
-def tile_starts(length, tile, overlap):
+def tile_starts(length: int, tile: int, overlap: int) -> list[int]:
     """First pixels of the tiles covering [0, length) with at least ``overlap`` pixels shared
     by neighbours, spread evenly; ``length`` >= ``tile`` > ``overlap``."""
     if not length >= tile > overlap >= 0:
@@ -119,14 +120,15 @@ def tile_starts(length, tile, overlap):
     return [round(i * (length - tile) / (count - 1)) for i in range(count)]
 
 
-def tile_weight(tile, overlap):
+def tile_weight(tile: int, overlap: int) -> np.ndarray:
     """(tile,) blending weights: rising linearly over ``overlap`` pixels from each edge to 1,
     never 0 (so a photo border, covered by one tile, keeps its pixels)."""
     ramp = np.minimum(np.arange(1, tile + 1), np.arange(tile, 0, -1)) / (overlap + 1)
     return np.minimum(ramp, 1.0).astype(np.float32)
 
 
-def tiled_map_networks(net, photo, tile, overlap):
+def tiled_map_networks(net: SVBRDFNet, photo: np.ndarray, tile: int,
+                       overlap: int) -> dict[str, torch.Tensor]:
     """The maps of map_networks, each (1, 3, H, W), of the (H, W, 3) photo run as overlapping
     ``tile`` x ``tile`` tiles, blended (a photo side under ``tile`` is padded by reflection
     and the padding cut off again)."""
@@ -155,7 +157,8 @@ def tiled_map_networks(net, photo, tile, overlap):
     return {name: value[None, :, :height, :width] for name, value in blended.items()}
 
 
-def combine(overview, detail):
+def combine(overview: dict[str, torch.Tensor],
+            detail: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
     """The maps of ``detail`` (dicts as map_networks gives) at the detail's size, with the
     detail's high frequencies and the overview's low ones (module docstring, step 3)."""
     size = detail["normal"].shape[2:]

@@ -33,6 +33,7 @@ models (train.networks.model_files).
 """
 
 import json
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import torch
@@ -56,7 +57,7 @@ class MaterialClassifier(nn.Module):
     """Photo (B, 3, S, S), linear RGB in [0, 1], S a multiple of the configuration's input
     size -> logits (B, len(ROUTES))."""
 
-    def __init__(self, config=CLASSIFIER_CONFIG):
+    def __init__(self, config: NetworkConfig = CLASSIFIER_CONFIG):
         super().__init__()
         self.config = config
         self.analysis = Analysis(config)
@@ -65,14 +66,14 @@ class MaterialClassifier(nn.Module):
         """Optional second MaterialClassifier whose plastic-to-metal odds ``probabilities``
         uses (attach it with ``attach_plastic_or_metal``)."""
 
-    def attach_plastic_or_metal(self, classifier):
+    def attach_plastic_or_metal(self, classifier: "MaterialClassifier") -> None:
         """Use ``classifier`` (a MaterialClassifier without a second network of its own) for
         the plastic-or-metal call."""
         if classifier.plastic_or_metal is not None:
             raise ValueError("the plastic-or-metal network cannot hold one of its own")
         self.plastic_or_metal = classifier
 
-    def forward(self, photo):
+    def forward(self, photo: torch.Tensor) -> torch.Tensor:
         size = self.config.input_size
         if photo.shape[-1] % size or photo.shape[-2] != photo.shape[-1]:
             raise ValueError(f"photos of {tuple(photo.shape[-2:])} px are not squares of a "
@@ -83,7 +84,7 @@ class MaterialClassifier(nn.Module):
         pooled = torch.cat([features.mean((2, 3)), features.amax((2, 3))], dim=1)
         return self.head(pooled)
 
-    def probabilities(self, photo):
+    def probabilities(self, photo: torch.Tensor) -> torch.Tensor:
         """Probabilities of the routes, (B, len(ROUTES)), without gradients: the mean over the
         photo's 8 quarter turns and mirror images (each is a photo of the turned or mirrored
         sample under the probe turned or mirrored alike, as likely as the photo itself). With
@@ -102,7 +103,8 @@ class MaterialClassifier(nn.Module):
             return torch.stack([torch.softmax(self(view), dim=1) for view in views]).mean(0)
 
 
-def split_plastic_or_metal(probabilities, specialist):
+def split_plastic_or_metal(probabilities: torch.Tensor,
+                           specialist: torch.Tensor) -> torch.Tensor:
     """``probabilities`` (B, len(ROUTES)) with the sum of plastic and metal redistributed in
     the ratio of ``specialist``'s (B, len(ROUTES)) plastic and metal probabilities."""
     plastic, metal = ROUTES.index("plastic"), ROUTES.index("metal")
@@ -114,7 +116,7 @@ def split_plastic_or_metal(probabilities, specialist):
     return split
 
 
-def route_folders(pairs, routes=ROUTES):
+def route_folders(pairs: Iterable[str], routes: Sequence[str] = ROUTES) -> dict[str, str]:
     """{route: folder} of ``ROUTE=FOLDER`` strings, one for every route of ``routes``."""
     folders = dict(pair.split("=", 1) for pair in pairs)
     if sorted(folders) != sorted(routes):
@@ -122,7 +124,8 @@ def route_folders(pairs, routes=ROUTES):
     return folders
 
 
-def cheapest_route(probabilities, costs):
+def cheapest_route(probabilities: torch.Tensor | Sequence[float],
+                   costs: torch.Tensor | Sequence[Sequence[float]]) -> int:
     """Index of the route whose network has the least expected cost, for probabilities
     (len(ROUTES),) and costs (len(ROUTES), len(ROUTES)): rows the photo's route, columns the
     network."""
@@ -130,7 +133,8 @@ def cheapest_route(probabilities, costs):
                             @ torch.as_tensor(costs, dtype=torch.float64)))
 
 
-def save_classifier(classifier, path, costs, metadata):
+def save_classifier(classifier: MaterialClassifier, path: str | Path, costs: list[list[float]],
+                    metadata: dict) -> None:
     """Write the classifier's weights (float16; a plastic-or-metal network's under
     ``plastic_or_metal.``), its ``costs`` (len(ROUTES) x len(ROUTES) nested lists) and
     ``metadata`` (str -> JSON-able) as a safetensors file, atomically, readable by everyone.
@@ -143,7 +147,7 @@ def save_classifier(classifier, path, costs, metadata):
         "plastic_or_metal": classifier.plastic_or_metal is not None})
 
 
-def load_classifier(path):
+def load_classifier(path: str | Path) -> MaterialClassifier:
     """The classifier of a file written by save_classifier, in evaluation mode, float32, with
     its ``costs`` (a float64 tensor) and ``source`` (the file)."""
     path = Path(path)

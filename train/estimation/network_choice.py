@@ -16,17 +16,24 @@ which one and why (``model``: its file; with the router also ``class`` and
 
 from pathlib import Path
 
+import numpy as np
 import torch
 
 from render.common.errors import InputError
 from render.common.package_data import installed_file
-from train.estimation.material_classifier import ROUTES, cheapest_route, load_classifier
+from train.estimation.material_classifier import (
+    ROUTES,
+    MaterialClassifier,
+    cheapest_route,
+    load_classifier,
+)
 from train.networks.model_files import (
     SHIPPED_MODELS,
     load_network,
     shipped_model_path,
     shipped_network_config,
 )
+from train.networks.svbrdf_net import SVBRDFNet
 
 CLASSIFIER_FILE = "material-classifier.safetensors"
 """The material classifier's file among the shipped models."""
@@ -41,11 +48,11 @@ def shipped_classifier_path() -> Path:
 class FixedNetwork:
     """One network for every photo."""
 
-    def __init__(self, net):
+    def __init__(self, net: SVBRDFNet):
         self.net = net
         self.input_size = net.config.input_size
 
-    def for_photo(self, photo):
+    def for_photo(self, photo: np.ndarray) -> tuple[SVBRDFNet, dict]:
         return self.net, {"model": self.net.source}
 
 
@@ -53,7 +60,7 @@ class ClassRouter:
     """The shipped network the classifier picks for each photo (the least expected cost,
     train.estimation.material_classifier.cheapest_route), loaded when first needed."""
 
-    def __init__(self, classifier, device="cpu"):
+    def __init__(self, classifier: MaterialClassifier, device: str = "cpu"):
         self.classifier, self.device = classifier.to(device), device
         self.networks = {}
         self.input_size = shipped_network_config(shipped_model_path(ROUTES[0])).input_size
@@ -66,7 +73,7 @@ class ClassRouter:
             self.networks[route] = net
         return self.networks[route]
 
-    def for_photo(self, photo):
+    def for_photo(self, photo: np.ndarray) -> tuple[SVBRDFNet, dict]:
         image = torch.as_tensor(photo)[None].to(self.device)
         probabilities = self.classifier.probabilities(image)[0].cpu()
         route = ROUTES[cheapest_route(probabilities, self.classifier.costs)]
@@ -76,7 +83,8 @@ class ClassRouter:
                                              for name, p in zip(ROUTES, probabilities)}}
 
 
-def network_choice(model, material_class, device="cpu"):
+def network_choice(model: str | Path | None, material_class: str,
+                   device: str = "cpu") -> FixedNetwork | ClassRouter:
     """The choice of the command line: ``model`` (a file or run folder) if given, else the
     shipped network of ``material_class``, or the classifier's pick for ``auto``."""
     if model is not None:

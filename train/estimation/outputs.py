@@ -56,7 +56,8 @@ def write_photo_folder(folder: Path, svbrdf: ReducedSVBRDF, linear_photo: np.nda
     return write_pictures(folder, linear_photo, svbrdf, short_side, bank, probe_paths)
 
 
-def write_pictures(folder, linear_photo, svbrdf, short_side, bank, probe_paths):
+def write_pictures(folder: Path, linear_photo: np.ndarray, svbrdf: ReducedSVBRDF,
+                   short_side: int, bank: ProbeBank, probe_paths: tuple) -> list[str]:
     """photo.png and the PNG maps at the maps' size, relit-<probe>.png per probe and
     preview.png at ``short_side`` (the network's input scale); returns the relit files'
     names."""
@@ -85,7 +86,7 @@ def write_pictures(folder, linear_photo, svbrdf, short_side, bank, probe_paths):
     return names
 
 
-def write_report(path, reports):
+def write_report(path: Path, reports: list[dict]) -> None:
     """An HTML page: per photo, the photo, the full-resolution maps, the parameters with units
     and color spaces, and the relit images; every image has alt text."""
     sections = "".join(report_section(report) for report in reports)
@@ -101,7 +102,7 @@ def write_report(path, reports):
         tmp.write_text(page)
 
 
-def report_section(report):
+def report_section(report: dict) -> str:
     name = html.escape(Path(report["photo"]).name)
     folder = quote(Path(report["out"]).name)
     width, height = report["map_size"]

@@ -2,15 +2,16 @@
 baseline. This is the number the project is judged by.
 
 Test data is either ``render-dataset`` folders (up to ``--samples`` of their ``--split``, by
-default the held-out "test" split, evenly spaced over the folders in order) or a folder of material folders, rendered here by the torch renderer under the
-probes of ``--probes`` (train.data.map_samples; ``--samples`` of them, drawn from ``--seed``).
+default the held-out "test" split, evenly spaced over the folders in order) or a folder of
+material folders, rendered here by the torch renderer under the probes of ``--probes``
+(train.data.map_samples; ``--samples`` of them, drawn from ``--seed``).
 
 Each test image goes the way a user's photo goes: it is saved as an 8-bit PNG, gamma 1/2.2
-encoded, and read back by train.data.photos.read_photo (gamma 2.2 decoding, centre square, resize),
-then estimated by train.estimation.estimator.estimate with the network train.estimation.network_choice gives it (with
-``--class auto``, the shipped network the material classifier picks for that photo), exactly as
-``sa-estimate`` does. The truth is box filtered to the network's input size when the data has
-another.
+encoded, and read back by train.data.photos.read_photo (gamma 2.2 decoding, centre square,
+resize), then estimated by train.estimation.estimator.estimate with the network
+train.estimation.network_choice gives it (with ``--class auto``, the shipped network the
+material classifier picks for that photo), exactly as ``sa-estimate`` does. The truth is box
+filtered to the network's input size when the data has another.
 
 Errors per sample (all on the paper's relative quantities, natural logs):
     albedo_rmse              RMSE of the relative diffuse albedo (pixels and channels)
@@ -36,6 +37,7 @@ swap lowers the relit error much is the part to get right.
 import json
 import math
 import tempfile
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -57,6 +59,7 @@ from train.data.map_samples import MapSampler
 from train.data.photos import PHOTO_GAMMA, read_photo
 from train.estimation.estimator import estimate
 from train.estimation.material_classifier import ROUTES
+from train.estimation.network_choice import ClassRouter, FixedNetwork
 from train.training.losses import maps_at_size
 
 NAIVE_SPECULAR = 0.08
@@ -94,7 +97,8 @@ class EvaluationConfig:
     device: str = "cpu"
 
 
-def test_samples(cfg, bank, probe_names):
+def test_samples(cfg: EvaluationConfig, bank: ProbeBank,
+                 probe_names: Sequence[str]) -> list[tuple[np.ndarray, dict, str | None, str]]:
     """The test samples: (image (3, H, W) float32, truth dict of (1, ...) tensors, own probe
     name or None, sample name), as a list."""
     if bool(cfg.datasets) == (cfg.materials is not None):
@@ -132,7 +136,7 @@ def test_samples(cfg, bank, probe_names):
     return samples
 
 
-def as_photo_file(image, folder, name):
+def as_photo_file(image: np.ndarray, folder: str | Path, name: str) -> Path:
     """Save a linear (3, H, W) image in [0, 1] as an 8-bit PNG encoded with gamma 1/2.2, the
     encoding train.data.photos.read_photo undoes; returns the path."""
     path = Path(folder) / f"{name}.png"
@@ -141,7 +145,8 @@ def as_photo_file(image, folder, name):
     return path
 
 
-def model_estimate(choice, photo):
+def model_estimate(choice: FixedNetwork | ClassRouter,
+                   photo: np.ndarray) -> tuple[dict[str, torch.Tensor], dict]:
     """The estimate sa-estimate would write, as a dict of (1, ...) tensors, and the dict that
     says which network made it (train.estimation.network_choice)."""
     net, chosen = choice.for_photo(photo)
@@ -152,7 +157,7 @@ def model_estimate(choice, photo):
             "log_roughness": torch.tensor([[math.log(svbrdf.roughness)]])}, chosen
 
 
-def naive_estimate(photo):
+def naive_estimate(photo: np.ndarray) -> dict[str, torch.Tensor]:
     """The naive baseline of a (3, S, S) linear photo, as a dict of (1, ...) tensors."""
     image = torch.as_tensor(photo)[None].double()
     albedo = image * (0.5 / max(float(image.mean()), 1e-6))
@@ -163,7 +168,8 @@ def naive_estimate(photo):
             "log_roughness": torch.tensor([[math.log(NAIVE_ROUGHNESS)]])}
 
 
-def relit_under(parameters, bank, probe_index, rotation_deg):
+def relit_under(parameters: dict[str, torch.Tensor], bank: ProbeBank, probe_index: torch.Tensor,
+                rotation_deg: torch.Tensor) -> torch.Tensor:
     """HDR torch renders (R, 3, S, S) of one parameter set under R probes and rotations."""
     count = len(probe_index)
     return render(parameters["albedo"].expand(count, -1, -1, -1),
@@ -173,14 +179,17 @@ def relit_under(parameters, bank, probe_index, rotation_deg):
                   bank, probe_index, rotation_deg)
 
 
-def relit_rmse(parameters, bank, probe_index, rotation_deg, truth_hdr, relit_truth):
+def relit_rmse(parameters: dict[str, torch.Tensor], bank: ProbeBank, probe_index: torch.Tensor,
+               rotation_deg: torch.Tensor, truth_hdr: torch.Tensor,
+               relit_truth: torch.Tensor) -> float:
     """Relit RMSE of ``parameters`` against the truth's exposed renders ``relit_truth``
     (exposed with the truth's HDR renders ``truth_hdr``)."""
     relit = expose(relit_under(parameters, bank, probe_index, rotation_deg), reference=truth_hdr)
     return float(torch.sqrt(torch.mean((relit - relit_truth) ** 2)))
 
 
-def sample_errors(estimate_, truth, relit_estimate, relit_truth):
+def sample_errors(estimate_: dict[str, torch.Tensor], truth: dict[str, torch.Tensor],
+                  relit_estimate: torch.Tensor, relit_truth: torch.Tensor) -> dict[str, float]:
     """The errors of the module docstring, as floats."""
     cosine = (estimate_["normal"] * truth["normal"]).sum(1).clamp(-1.0, 1.0)
     return {
@@ -194,7 +203,8 @@ def sample_errors(estimate_, truth, relit_estimate, relit_truth):
     }
 
 
-def novel_lightings(rng, own_probe, probe_names, held_out, count):
+def novel_lightings(rng: np.random.Generator, own_probe: str | None, probe_names: Sequence[str],
+                    held_out: Collection[str], count: int) -> tuple[torch.Tensor, torch.Tensor]:
     """``count`` probe indices other than ``own_probe`` (among ``held_out`` names when any are
     in the folder) and rotations in degrees."""
     pool = [i for i, name in enumerate(probe_names) if name != own_probe
@@ -205,16 +215,16 @@ def novel_lightings(rng, own_probe, probe_names, held_out, count):
     return torch.as_tensor(chosen), torch.as_tensor(rng.uniform(0.0, 360.0, size=count))
 
 
-def held_out_probes(cfg):
+def held_out_probes(cfg: EvaluationConfig) -> set[str]:
     """Names of the datasets' test-split probes (none for a materials folder)."""
     return {record["probe"] for folder in cfg.datasets
             for record in LabeledDataset(folder, "test").samples}
 
 
-def run(cfg, choice):
-    """Evaluate the estimates of the networks ``choice`` gives (train.estimation.network_choice) on the
-    data of ``cfg``; write results.json and figure.png into ``cfg.out``; return the report
-    dict."""
+def run(cfg: EvaluationConfig, choice: FixedNetwork | ClassRouter) -> dict:
+    """Evaluate the estimates of the networks ``choice`` gives
+    (train.estimation.network_choice) on the data of ``cfg``; write results.json and
+    figure.png into ``cfg.out``; return the report dict."""
     require_output_folder(cfg.out)
     probe_files = find_probes(cfg.probes)
     probe_names = [path.stem for path in probe_files]
@@ -269,7 +279,7 @@ def run(cfg, choice):
     return report
 
 
-def summary(records):
+def summary(records: list[dict]) -> dict:
     """Means of the model's and the baseline's errors, and their ratios."""
     mean = {kind: {name: float(np.mean([r[kind][name] for r in records])) for name in ERRORS}
             for kind in ("model", "naive")}
@@ -282,7 +292,7 @@ def summary(records):
     return mean
 
 
-def specular_swatch(log_specular, log_roughness, size):
+def specular_swatch(log_specular: np.ndarray, log_roughness: float, size: int) -> np.ndarray:
     """A sphere (size, size, 3) of relative diffuse albedo 0.5 and the given homogeneous Ward
     specular, lit by one directional light (SWATCH_LIGHT) and seen from +z, linear RGB."""
     normal, mask = sphere_normals(size, dtype=torch.float64)  # (3, S, S), (1, S, S)
@@ -298,7 +308,9 @@ def specular_swatch(log_specular, log_roughness, size):
     return swatch.permute(1, 2, 0).numpy().astype(np.float32)
 
 
-def figure_row(photo, estimate_, truth, relit_estimate, relit_truth):
+def figure_row(photo: np.ndarray, estimate_: dict[str, torch.Tensor],
+               truth: dict[str, torch.Tensor], relit_estimate: torch.Tensor,
+               relit_truth: torch.Tensor) -> np.ndarray:
     """photo | albedo est | albedo true | normals est | normals true | swatch est | swatch
     true | relit est | relit true, as one (S, 9 S, 3) sRGB row in [0, 1]."""
     size = photo.shape[-1]
@@ -316,7 +328,7 @@ def figure_row(photo, estimate_, truth, relit_estimate, relit_truth):
     return np.concatenate(panels, axis=1)
 
 
-def write_figure(path, rows):
+def write_figure(path: Path, rows: list[np.ndarray]) -> None:
     """Stack the rows with a header line of column names; write an 8-bit PNG."""
     picture = np.clip(np.concatenate(rows, axis=0), 0, 1)
     names = ["photo", "albedo est", "albedo true", "normals est", "normals true",

@@ -33,8 +33,9 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from render.torch_renderer.renderer import ProbeBank
 from train.fits.part_fitting import draw_fit, photo_batches, save_work, saved_work
-from train.networks.svbrdf_net import AlbedoCorrection
+from train.networks.svbrdf_net import AlbedoCorrection, SVBRDFNet
 
 BATCH = 16
 """Crops per minibatch."""
@@ -61,7 +62,7 @@ class FitConfig:
     seed: int = 0
 
 
-def prepare(cfg, net, bank):
+def prepare(cfg: FitConfig, net: SVBRDFNet, bank: ProbeBank) -> dict[str, torch.Tensor]:
     """Step 1 of the module docstring: a dict of float16 tensors ``estimate`` (the frozen
     networks' photo-affine albedo) and ``truth``, each (photos, 3, S, S)."""
     rng = np.random.default_rng([cfg.seed, 1])
@@ -73,17 +74,18 @@ def prepare(cfg, net, bank):
     return {"estimate": torch.cat(estimates), "truth": torch.cat(truths)}
 
 
-def albedo_rmse(albedo, truth):
+def albedo_rmse(albedo: torch.Tensor, truth: torch.Tensor) -> torch.Tensor:
     """(B,): RMSE over pixels and channels of (B, 3, H, W) albedos."""
     return torch.sqrt(((albedo - truth) ** 2).mean((1, 2, 3)))
 
 
-def corrected(correction, albedo):
+def corrected(correction: AlbedoCorrection, albedo: torch.Tensor) -> torch.Tensor:
     """``albedo`` times the correction's gain, not scaled again (the fit's estimate)."""
     return albedo * torch.exp(correction.log_gain(albedo))
 
 
-def check_errors(correction, prepared, rows):
+def check_errors(correction: AlbedoCorrection, prepared: dict[str, torch.Tensor],
+                 rows: torch.Tensor) -> tuple[float, float]:
     """Mean whole-photo albedo RMSE of the photos ``rows`` of ``prepared``: (with the
     correction, without it)."""
     with_, without = [], []
@@ -97,7 +99,7 @@ def check_errors(correction, prepared, rows):
     return torch.cat(with_).mean().item(), torch.cat(without).mean().item()
 
 
-def fit(cfg, net, bank):
+def fit(cfg: FitConfig, net: SVBRDFNet, bank: ProbeBank) -> dict:
     """Fit ``net.correction`` (an AlbedoCorrection, replaced by a fresh one unless a saved
     fit of the same options resumes) as the module docstring says; returns a report dict (the
     kept-out photos' albedo RMSE with and without it)."""

@@ -4,10 +4,11 @@ The homogeneous network reads the specular albedo and roughness, a photo-affine 
 network the reflection's share of the photo; on a flat glossy sample both read the same
 offset, which a lighter albedo explains as well as a stronger reflection. The head reads the
 five values together (beside a map albedo network, the homogeneous network's four), with
-quantiles of the photo's values (train.networks.svbrdf_net.photo_statistics), and is fit, the networks
-frozen, on the evaluation's relit error (train.evaluation.estimate_evaluation), which a network trained
-on the parameters' own errors does not weigh (a roughness read too low, a sharp highlight
-where the truth's is broad, costs more relit error than one read as much too high):
+quantiles of the photo's values (train.networks.svbrdf_net.photo_statistics), and is fit, the
+networks frozen, on the evaluation's relit error (train.evaluation.estimate_evaluation),
+which a network trained on the parameters' own errors does not weigh (a roughness read too
+low, a sharp highlight where the truth's is broad, costs more relit error than one read as
+much too high):
 
 1. **Photos.** ``photos`` labeled samples rendered from a folder of material maps under
    training probes (train.data.map_samples.MapSampler, 256 px; mixed specular pairs unless
@@ -31,9 +32,9 @@ where the truth's is broad, costs more relit error than one read as much too hig
    flat: its normal angle error is 1.05x the flat baseline's; the wood network's 0.75x);
    sa-evaluate judges the head with them.
 4. **Fit.** Adam (lr 1e-3, weight decay 1e-4) on the relit RMSE (the estimate's clamp leaks,
-   train.training.losses.RELIT_CLAMP_LEAK), minibatches of BATCH relights, ``steps`` steps. A tenth of
-   the photos (CHECK_SHARE) is kept out of the fit; their relit error, with and without the
-   head, is reported and drawn beside the loss (``WORK/fit.png``).
+   train.training.losses.RELIT_CLAMP_LEAK), minibatches of BATCH relights, ``steps`` steps. A
+   tenth of the photos (CHECK_SHARE) is kept out of the fit; their relit error, with and
+   without the head, is reported and drawn beside the loss (``WORK/fit.png``).
 
 Steps 1 and 2 are the slow part (about 0.1 s per photo on the project's 2-core CPU); their
 result is saved (``WORK/prepared.pt``, read back with torch's safe loader), so a fit cut off
@@ -50,9 +51,14 @@ from torch.nn import functional
 from tqdm import tqdm
 
 from render.common.exposure import exposure_scales
-from render.torch_renderer.renderer import render
+from render.torch_renderer.renderer import ProbeBank, render
 from train.fits.part_fitting import draw_fit, photo_batches, save_work, saved_work
-from train.networks.svbrdf_net import JointReading, photo_affine_albedo, photo_statistics
+from train.networks.svbrdf_net import (
+    JointReading,
+    SVBRDFNet,
+    photo_affine_albedo,
+    photo_statistics,
+)
 from train.training.losses import RELIT_CLAMP_LEAK, clamped_relit_rmse, maps_at_size
 
 RELIT_SIZE = 32
@@ -80,7 +86,7 @@ class FitConfig:
     seed: int = 0
 
 
-def prepare(cfg, net, bank):
+def prepare(cfg: FitConfig, net: SVBRDFNet, bank: ProbeBank) -> dict[str, torch.Tensor]:
     """Steps 1 and 2 of the module docstring: a dict of tensors (readings (N, inputs of the
     head), photo (N, 3, s, s), or beside a map albedo network albedo (N, 3, s, s) instead,
     relit_probe / exposure / relit (N R, ...), photo_of_relight (N R,))."""
@@ -124,7 +130,7 @@ def prepare(cfg, net, bank):
             "relit": torch.cat(relit), "photo_of_relight": torch.cat(photo_of_relight)}
 
 
-def flat_radiance_tables(bank):
+def flat_radiance_tables(bank: ProbeBank) -> tuple[torch.Tensor, torch.Tensor]:
     """(diffuse (P, 3), specular (P, len(ALPHA_GRID), 3)): per probe of ``bank``, the
     radiance of a flat sample of albedo 1 (no specular) and of specular albedo 1 (no diffuse)
     at each alpha of ALPHA_GRID, seen from +z."""
@@ -141,7 +147,7 @@ def flat_radiance_tables(bank):
     return diffuse, specular
 
 
-def specular_at(tables, log_roughness):
+def specular_at(tables: torch.Tensor, log_roughness: torch.Tensor) -> torch.Tensor:
     """(B, 3): ``tables`` (B, len(ALPHA_GRID), 3) interpolated linearly in log alpha at
     ``log_roughness`` (B,), clamped to the grid."""
     grid = torch.log(ALPHA_GRID)
@@ -152,7 +158,9 @@ def specular_at(tables, log_roughness):
     return tables[rows, low] * (1.0 - weight) + tables[rows, low + 1] * weight
 
 
-def relit_errors(head, prepared, tables, relights, leak=0.0):
+def relit_errors(head: JointReading | None, prepared: dict[str, torch.Tensor],
+                 tables: tuple[torch.Tensor, torch.Tensor], relights: torch.Tensor,
+                 leak: float = 0.0) -> torch.Tensor:
     """Relit RMSE (len(relights),) of the head's corrected readings for the given relight
     rows of ``prepared`` (of a photo-affine network where it holds the photos, else of a map
     albedo network); ``head`` None: the networks' own readings."""
@@ -171,7 +179,7 @@ def relit_errors(head, prepared, tables, relights, leak=0.0):
     return clamped_relit_rmse(exposed, prepared["relit"][relights], leak)
 
 
-def fit(cfg, net, bank):
+def fit(cfg: FitConfig, net: SVBRDFNet, bank: ProbeBank) -> dict:
     """Fit ``net.joint`` (a JointReading, replaced by a fresh one) as the module docstring
     says; returns a report dict (relit error of the check photos with and without it)."""
     work = Path(cfg.work)

@@ -10,6 +10,8 @@ safe loader and used only under the options they were made with.
 
 import dataclasses
 import json
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -23,19 +25,22 @@ from render.torch_renderer.renderer import ProbeBank
 from train.data.map_samples import MapSampler
 from train.data.photos import PHOTO_GAMMA
 from train.networks.model_files import FORMAT, load_network, model_metadata, save_model
+from train.networks.svbrdf_net import SVBRDFNet
 
 PHOTO_BATCH = 32
 """Photos rendered and read by the networks at once."""
 
 
-def photo_round_trip(image):
+def photo_round_trip(image: torch.Tensor) -> torch.Tensor:
     """(B, 3, S, S) linear images in [0, 1] -> as read back from an 8-bit PNG encoded with
     gamma 1 / PHOTO_GAMMA (sa-evaluate's photos)."""
     encoded = torch.round(image.clamp(0.0, 1.0) ** (1.0 / PHOTO_GAMMA) * 255.0) / 255.0
     return encoded ** PHOTO_GAMMA
 
 
-def photo_batches(maps, bank, size, count, rng, mix_specular=True):
+def photo_batches(maps: str | Path, bank: ProbeBank, size: int, count: int,
+                  rng: np.random.Generator,
+                  mix_specular: bool = True) -> Iterator[tuple[dict, torch.Tensor]]:
     """``count`` labeled samples rendered from the material folders of ``maps`` under the
     probes of ``bank`` (MapSampler: ``size`` px crops of the maps resampled to twice that,
     mixed specular pairs unless ``mix_specular`` is False), drawn with ``rng`` in batches of
@@ -48,7 +53,7 @@ def photo_batches(maps, bank, size, count, rng, mix_specular=True):
         yield batch, photo_round_trip(batch["image"])
 
 
-def saved_work(path, options):
+def saved_work(path: Path, options: dict) -> dict | None:
     """The data a fit saved at ``path`` (save_work) under the same ``options``, or None; read
     with torch's safe loader."""
     if not path.is_file():
@@ -57,14 +62,16 @@ def saved_work(path, options):
     return saved["data"] if saved["options"] == options else None
 
 
-def save_work(path, options, data):
+def save_work(path: Path, options: dict, data: dict) -> None:
     """Save a fit's ``data`` (tensors and plain containers) at ``path`` with the ``options``
     it depends on, atomically."""
     with atomic_path(path) as tmp:
         torch.save({"options": options, "data": data}, tmp)
 
 
-def draw_fit(path, losses, checks, before, loss_label, check_labels, ylabel):
+def draw_fit(path: Path, losses: Sequence[float], checks: Sequence[tuple[int, float]],
+             before: float, loss_label: str, check_labels: tuple[str, str],
+             ylabel: str) -> None:
     """A fit's picture at ``path``: the loss per step (mean of 100 steps, ``loss_label``), the
     kept-out photos' error at the ``checks`` ((step, error) pairs) and ``before`` the fit,
     labelled ``check_labels`` (with, without)."""
@@ -84,7 +91,8 @@ def draw_fit(path, losses, checks, before, loss_label, check_labels, ylabel):
         figure.savefig(tmp, format="png", dpi=100)
 
 
-def fit_part_onto_model(model, out, part, probes, fit, command):
+def fit_part_onto_model(model: str | Path, out: str | Path, part: str, probes: str | Path,
+                        fit: Callable[[SVBRDFNet, ProbeBank], dict], command: str) -> dict:
     """Fit a part that a model takes after training (``part``, its NetworkConfig flag:
     ``joint_reading``, or ``albedo_correction`` of a photo-affine model) onto the model file
     ``model`` and write the model with it to ``out``: ``fit(net, bank)`` (``bank``: the

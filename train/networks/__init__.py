@@ -1,1 +1,2 @@
-"""Networks and their files: SVBRDF-net's networks and parts, training checkpoints, shipped model files."""
+"""Networks and their files: SVBRDF-net's networks and parts, training checkpoints, shipped model
+files."""

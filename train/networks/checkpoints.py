@@ -11,8 +11,10 @@ name and renamed: a killed run loses at most the steps since its last checkpoint
 import io
 import re
 from pathlib import Path
+from typing import Any
 
 import torch
+from torch import nn
 
 from render.common.atomic_files import atomic_path
 from render.common.errors import InputError
@@ -23,7 +25,7 @@ KEEP = 3
 NAME = re.compile(r"^step-(\d{9})\.pt$")
 
 
-def save_checkpoint(folder, state):
+def save_checkpoint(folder: str | Path, state: dict[str, Any]) -> None:
     """Write ``state`` as ``step-<step>.pt`` in ``folder``; keep the newest KEEP files."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -35,7 +37,7 @@ def save_checkpoint(folder, state):
         old.unlink()
 
 
-def checkpoint_files(folder):
+def checkpoint_files(folder: str | Path) -> list[Path]:
     """Checkpoint files of ``folder``, oldest first."""
     folder = Path(folder)
     if not folder.is_dir():
@@ -43,7 +45,7 @@ def checkpoint_files(folder):
     return sorted(p for p in folder.iterdir() if NAME.match(p.name))
 
 
-def load_checkpoint(path):
+def load_checkpoint(path: str | Path) -> dict[str, Any]:
     """The state dict of a checkpoint file, checked to be one of ours. It is read with torch's
     safe loader (``weights_only=True``), so a file carrying pickled code is refused without
     running it."""
@@ -64,7 +66,7 @@ def _first_line(error):
     return (str(error).strip().splitlines() or [""])[0][:200]
 
 
-def load_weights(net, state, path):
+def load_weights(net: nn.Module, state: dict[str, Any], path: str | Path) -> None:
     """Load the model weights of ``state`` into ``net``, with a clear error on a mismatch
     naming the first weights missing, unexpected or of another shape."""
     try:

@@ -14,9 +14,12 @@ SHIPPED.
 
 import json
 from pathlib import Path
+from typing import Any
 
+import torch
 from safetensors import SafetensorError, safe_open
 from safetensors.torch import load_file, save_file
+from torch import nn
 
 from render.common.atomic_files import atomic_path
 from render.common.errors import InputError
@@ -31,21 +34,21 @@ SHIPPED = ("general", "wood", "plastic", "metal")
 """The general network (every class) and one network per class, as the paper trains."""
 
 
-def shipped_model_path(name):
+def shipped_model_path(name: str) -> Path:
     """The file of shipped model ``name`` (one of SHIPPED)."""
     if name not in SHIPPED:
         raise ValueError(f"unknown model class '{name}' (expected one of {', '.join(SHIPPED)})")
     return installed_file(SHIPPED_MODELS, f"svbrdf-{name}.safetensors")
 
 
-def save_model(net, path, metadata):
+def save_model(net: SVBRDFNet, path: str | Path, metadata: dict[str, Any]) -> None:
     """Write ``net``'s weights (floats as float16) and ``metadata`` (str -> JSON-able) as a
     shipped model file; its ``format`` and ``network`` are the file's own, whatever
     ``metadata`` (perhaps copied from another file) holds under those keys."""
     save_weights_file(net, path, metadata | {"format": FORMAT})
 
 
-def save_weights_file(module, path, metadata):
+def save_weights_file(module: nn.Module, path: str | Path, metadata: dict[str, Any]) -> None:
     """Write a module's weights (floats as float16), ``metadata`` (str -> JSON-able) and its
     ``config`` as ``network`` (in place of any ``network`` of ``metadata``) as a safetensors
     file, atomically, readable by everyone (safetensors creates it owner-only)."""
@@ -59,7 +62,7 @@ def save_weights_file(module, path, metadata):
         tmp.chmod(0o644)
 
 
-def model_metadata(path, file_format, what):
+def model_metadata(path: str | Path, file_format: str, what: str) -> dict[str, str]:
     """The metadata dict (str -> str) of the safetensors file ``path`` (a shipped model, the
     material classifier), which must exist and declare ``file_format``; ``what`` names the
     kind of file in the one-line errors."""
@@ -76,7 +79,7 @@ def model_metadata(path, file_format, what):
     return metadata
 
 
-def load_network(path, device="cpu"):
+def load_network(path: str | Path, device: str | torch.device = "cpu") -> SVBRDFNet:
     """The SVBRDF-net of a shipped model, checkpoint or run folder, in evaluation mode and
     float32 on ``device``; ``net.source`` names the file it came from."""
     path = Path(path)
@@ -99,7 +102,7 @@ def load_network(path, device="cpu"):
     return net.to(device).eval()
 
 
-def shipped_network_config(path):
+def shipped_network_config(path: str | Path) -> NetworkConfig:
     """The NetworkConfig of a shipped model file, read from its metadata (no weights)."""
     metadata = model_metadata(path, FORMAT, "model")
     try:
@@ -108,7 +111,7 @@ def shipped_network_config(path):
         raise InputError(path, f"model has no valid network configuration ({error})") from None
 
 
-def load_weights_file(module, path):
+def load_weights_file(module: nn.Module, path: str | Path) -> None:
     """Load the (float16) weights of a safetensors file into ``module`` as float32."""
     weights = {name: value.float() if value.is_floating_point() else value
                for name, value in load_file(str(path)).items()}

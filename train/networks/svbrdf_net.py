@@ -50,6 +50,7 @@ Input: (B, 3, S, S) photos, linear RGB in [0, 1] (docs/conventions.md), S divisi
 """
 
 import dataclasses
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 
 import torch
@@ -107,7 +108,7 @@ class NetworkConfig:
             raise ValueError(f"input_size {self.input_size} is not divisible by 2^levels "
                              f"({2 ** self.levels})")
 
-    def channels(self):
+    def channels(self) -> list[int]:
         """Channels of each analysis block, from the input side."""
         return [min(self.width * 2 ** level, self.max_width) for level in range(self.levels)]
 
@@ -129,12 +130,12 @@ def _block(in_channels, out_channels):
 class Analysis(nn.Module):
     """The shared structure: blocks each followed by 2x2 max pooling."""
 
-    def __init__(self, config, in_channels=3):
+    def __init__(self, config: NetworkConfig, in_channels: int = 3):
         super().__init__()
         channels = [in_channels] + config.channels()
         self.blocks = nn.ModuleList(_block(a, b) for a, b in zip(channels, channels[1:]))
 
-    def forward(self, image):
+    def forward(self, image: torch.Tensor) -> tuple[list[torch.Tensor], torch.Tensor]:
         """Features before each pooling (for skip links), and the pooled bottleneck."""
         features = []
         x = image  # (B, 3, S, S)
@@ -149,10 +150,11 @@ class HomogeneousNet(nn.Module):
     """Image (B, in_channels, S, S) -> homogeneous parameters (B, outputs).
 
     In SVBRDF-net: a photo -> log relative specular albedo (3) and log roughness (1). In
-    BRDF-net (the paper's validation): a monochrome sphere -> 2 values (train.brdf_validation.validation).
+    BRDF-net (the paper's validation): a monochrome sphere -> 2 values
+    (train.brdf_validation.validation).
     """
 
-    def __init__(self, config, in_channels=3, outputs=4):
+    def __init__(self, config: NetworkConfig, in_channels: int = 3, outputs: int = 4):
         super().__init__()
         self.config, self.in_channels = config, in_channels
         self.analysis = Analysis(config, in_channels)
@@ -164,7 +166,7 @@ class HomogeneousNet(nn.Module):
         self.synthesis = nn.Sequential(nn.Flatten(), nn.Linear(features, config.hidden),
                                        nn.ReLU(inplace=True), nn.Linear(config.hidden, outputs))
 
-    def forward(self, image):
+    def forward(self, image: torch.Tensor) -> torch.Tensor:
         check_images(image, self.in_channels, self.config.input_size)
         _, bottleneck = self.analysis(image)  # (B, C, s, s)
         if self.config.homogeneous_pooling == "mean":
@@ -177,7 +179,8 @@ class MapNet(nn.Module):
     ``torch.sigmoid`` for a map in [0, 1] (encoded normals) or ``functional.softplus`` for an
     unbounded positive one (relative albedo, which exceeds 1 for saturated colors)."""
 
-    def __init__(self, config, activation):
+    def __init__(self, config: NetworkConfig,
+                 activation: Callable[[torch.Tensor], torch.Tensor]):
         super().__init__()
         self.activation = activation
         self.analysis = Analysis(config)
@@ -186,7 +189,7 @@ class MapNet(nn.Module):
         self.synthesis = nn.ModuleList(_block(a, b) for a, b in zip(inputs, reversed(channels)))
         self.output = nn.Conv2d(2 * channels[0], 3, 3, padding=1)
 
-    def forward(self, image):
+    def forward(self, image: torch.Tensor) -> torch.Tensor:
         features, x = self.analysis(image)
         for block, skip in zip(self.synthesis, reversed(features)):
             x = functional.interpolate(block(x), scale_factor=2, mode="bilinear",
@@ -200,12 +203,12 @@ class PhotoAffineAlbedoNet(nn.Module):
     (photo_affine_albedo) whose share ``affine``, a homogeneous network with its bottleneck
     averaged, predicts."""
 
-    def __init__(self, config):
+    def __init__(self, config: NetworkConfig):
         super().__init__()
         self.affine = HomogeneousNet(dataclasses.replace(config, homogeneous_pooling="mean"),
                                      outputs=1)
 
-    def forward(self, image, reference=None):
+    def forward(self, image: torch.Tensor, reference: torch.Tensor | None = None) -> torch.Tensor:
         """The albedo of ``image``; with ``reference`` (B, 3, S, S), the reflection's share
         is predicted from it instead, and ``image`` may have any size (a full-resolution
         photo mapped as its network-size view is: train.estimation.full_resolution)."""
@@ -218,7 +221,7 @@ AFFINE_OFFSET_SHARPNESS = 100.0
 positive: it differs from max(x, 0) by at most log(2) / 100 = 0.007."""
 
 
-def photo_affine_albedo(logit, image):
+def photo_affine_albedo(logit: torch.Tensor, image: torch.Tensor) -> torch.Tensor:
     """The relative albedo (B, 3, H, W) of ``image`` (B, 3, H, W), a linear RGB photo, less
     the reflection: a grey offset, ``sigmoid(logit)`` ((B, 1), the reflection's share) times
     the photo's mean over pixels and channels; kept positive by a softplus and scaled to
@@ -234,7 +237,7 @@ JOINT_READING_HIDDEN = 64
 """Hidden units of JointReading."""
 
 
-def photo_statistics(image):
+def photo_statistics(image: torch.Tensor) -> torch.Tensor:
     """(B, 3 len(PHOTO_QUANTILES)): the quantiles PHOTO_QUANTILES of each channel's pixel
     values of ``image`` (B, 3, S, S), over the photo's mean (so that they do not depend on its
     exposure), quantile-major."""
@@ -251,7 +254,7 @@ class JointReading(nn.Module):
     ``scale`` (set when the head is fit), and adds its outputs (``values``: 5, or 4 without the
     share) to the values read; its last layer starts at zero (the identity)."""
 
-    def __init__(self, reads_share=True):
+    def __init__(self, reads_share: bool = True):
         super().__init__()
         self.reads_share = reads_share
         self.values = 5 if reads_share else 4
@@ -264,16 +267,20 @@ class JointReading(nn.Module):
         nn.init.zeros_(self.mlp[2].weight)
         nn.init.zeros_(self.mlp[2].bias)
 
-    def readings(self, log_specular, log_roughness, logit, statistics):
+    def readings(self, log_specular: torch.Tensor, log_roughness: torch.Tensor,
+                 logit: torch.Tensor | None, statistics: torch.Tensor) -> torch.Tensor:
         """The (B, values + 27) inputs of the head, before standardizing."""
         shares = [logit] if self.reads_share else []
         return torch.cat([log_specular, log_roughness, *shares, statistics], 1)
 
-    def forward(self, log_specular, log_roughness, logit, statistics):
+    def forward(self, log_specular: torch.Tensor, log_roughness: torch.Tensor,
+                logit: torch.Tensor | None, statistics: torch.Tensor
+                ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
         inputs = self.readings(log_specular, log_roughness, logit, statistics)
         return self.corrected(inputs)
 
-    def corrected(self, inputs):
+    def corrected(self, inputs: torch.Tensor
+                  ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
         """(log specular (B, 3), log roughness (B, 1), logit (B, 1) or None): the head's
         correction of its ``inputs`` (readings)."""
         corrected = inputs[:, :self.values] + self.mlp((inputs - self.mean) / self.scale)
@@ -310,7 +317,7 @@ class AlbedoCorrection(nn.Module):
         nn.init.zeros_(self.log_gain_output.weight)
         nn.init.zeros_(self.log_gain_output.bias)
 
-    def log_gain(self, albedo):
+    def log_gain(self, albedo: torch.Tensor) -> torch.Tensor:
         """(B, 3, H, W): the natural log of the gain of each pixel and channel of ``albedo``."""
         scaled = albedo * (0.5 / albedo.mean((1, 2, 3), keepdim=True).clamp(min=1e-4))
         x = torch.relu(self.first(torch.cat([scaled, torch.log(scaled + 0.01)], 1)))
@@ -320,13 +327,13 @@ class AlbedoCorrection(nn.Module):
         x = torch.relu(self.mix(torch.cat([x, context], 1)))
         return self.log_gain_output(x).clamp(-4.0, 4.0)
 
-    def forward(self, albedo):
+    def forward(self, albedo: torch.Tensor) -> torch.Tensor:
         """``albedo`` times its gain, scaled to mean 0.5 over pixels and channels (the labels'
         convention)."""
         return apply_log_gain(albedo, self.log_gain(albedo))
 
 
-def apply_log_gain(albedo, log_gain):
+def apply_log_gain(albedo: torch.Tensor, log_gain: torch.Tensor) -> torch.Tensor:
     """``albedo`` (B, 3, H, W) times exp(``log_gain``) (the same shape), scaled to mean 0.5."""
     corrected = albedo * torch.exp(log_gain)
     return corrected * (0.5 / corrected.mean((1, 2, 3), keepdim=True).clamp(min=1e-6))
@@ -344,7 +351,7 @@ class SVBRDFNet(nn.Module):
     ``load_state_dict`` keep it), in which oneDNN convolves about twice as fast on a CPU
     (docs/performance.md); the values equal the default layout's up to float rounding."""
 
-    def __init__(self, config=NetworkConfig()):
+    def __init__(self, config: NetworkConfig = NetworkConfig()):
         super().__init__()
         self.config = config
         self.homogeneous = HomogeneousNet(config)
@@ -357,7 +364,8 @@ class SVBRDFNet(nn.Module):
             self.correction = AlbedoCorrection()
         self.to(memory_format=torch.channels_last)
 
-    def forward(self, image, parts=tuple(PARTS)):
+    def forward(self, image: torch.Tensor,
+                parts: Collection[str] = tuple(PARTS)) -> dict[str, torch.Tensor]:
         """``image`` (B, 3, S, S) -> dict of albedo (B, 3, S, S) relative diffuse albedo
         (positive, mean about 0.5); normal (B, 3, S, S) unit tangent-space normals;
         log_specular (B, 3); log_roughness (B, 1). Only the networks named in ``parts`` (keys
@@ -388,7 +396,8 @@ class SVBRDFNet(nn.Module):
             outputs["normal"] = decode_normal(self.normal(image))
         return outputs
 
-    def joint_readings(self, image):
+    def joint_readings(self, image: torch.Tensor
+                       ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
         """The JointReading head's corrected log relative specular albedo (B, 3), log
         roughness (B, 1) and reflection share logit (B, 1; None beside a map albedo
         network) of ``image`` (B, 3, S, S); with
@@ -405,14 +414,15 @@ class SVBRDFNet(nn.Module):
         return tuple(None if r is None else r.unflatten(0, (8, len(image))).mean(0)
                      for r in readings)
 
-    def photo_affine_albedo(self, image, reference):
+    def photo_affine_albedo(self, image: torch.Tensor, reference: torch.Tensor) -> torch.Tensor:
         """The photo-affine albedo (B, 3, H, W) of ``image`` (any size) with the reflection
         share read from ``reference`` (B, 3, S, S), its network-size view; through the
         JointReading head when the network has one. Without an AlbedoCorrection (which
         train.estimation.full_resolution applies at the network's scale)."""
         return photo_affine_albedo(self.reflection_logit(reference), image)
 
-    def full_resolution_albedo(self, photo, reference, overview):
+    def full_resolution_albedo(self, photo: torch.Tensor, reference: torch.Tensor,
+                               overview: torch.Tensor) -> torch.Tensor:
         """The photo-affine albedo (1, 3, H, W) of ``photo`` (1, 3, H, W) at any resolution:
         the reflection share read from ``reference`` (1, 3, S, S), the photo's network-size
         view, once for both ``photo`` and ``overview`` (the photo at the network's scale);
@@ -428,7 +438,7 @@ class SVBRDFNet(nn.Module):
             albedo = apply_log_gain(albedo, log_gain)
         return albedo
 
-    def reflection_logit(self, reference):
+    def reflection_logit(self, reference: torch.Tensor) -> torch.Tensor:
         """(B, 1): the logit of the reflection's share of the photo-affine albedo, read from
         ``reference`` (B, 3, S, S); through the JointReading head when the network has one."""
         if not self.config.joint_reading:
@@ -436,7 +446,7 @@ class SVBRDFNet(nn.Module):
         return self.joint_readings(reference)[2]
 
 
-def dihedral_views(image):
+def dihedral_views(image: torch.Tensor) -> torch.Tensor:
     """(8 B, C, S, S): the 8 dihedral views of (B, C, S, S) images, view-major: the 4 quarter
     turns (counter-clockwise, 0 to 270 degrees) of the images, then of their mirror images
     (left-right)."""
@@ -444,7 +454,7 @@ def dihedral_views(image):
                       for turns in range(4)])
 
 
-def check_images(image, channels, size):
+def check_images(image: torch.Tensor, channels: int, size: int) -> None:
     """Raise ValueError unless ``image`` is (B, channels, size, size) of finite values."""
     if image.ndim != 4 or image.shape[1:] != (channels, size, size):
         raise ValueError(f"expected images of shape (B, {channels}, {size}, {size}), got "
@@ -453,7 +463,7 @@ def check_images(image, channels, size):
         raise ValueError("images hold NaN or infinite values")
 
 
-def decode_normal(encoded):
+def decode_normal(encoded: torch.Tensor) -> torch.Tensor:
     """(B, 3, H, W) normals encoded (n + 1) / 2 in [0, 1] -> unit vectors with z >= 0.05."""
     normal = encoded * 2.0 - 1.0
     normal = torch.cat([normal[:, :2], normal[:, 2:].clamp(min=0.05)], 1)

@@ -1,1 +1,2 @@
-"""The training loop of sa-train: schedule, losses, self-augmentation, optimizer, data parallelism."""
+"""The training loop of sa-train: schedule, losses, self-augmentation, optimizer, data
+parallelism."""

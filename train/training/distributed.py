@@ -17,12 +17,18 @@ backend on CPUs and NCCL on GPUs.
 """
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
+import numpy as np
 import torch
 import torch.distributed as dist
 import torch.distributed.nn
 from torch import nn
+
+_Items = TypeVar("_Items", bound=Sequence | np.ndarray)
+"""What Distributed.shard splits: a list (or other sequence) or an array."""
 
 
 @dataclass(frozen=True)
@@ -33,27 +39,27 @@ class Distributed:
     local_rank: int = 0
 
     @property
-    def is_main(self):
+    def is_main(self) -> bool:
         """True for the process that writes files and evaluates."""
         return self.rank == 0
 
     @property
-    def enabled(self):
+    def enabled(self) -> bool:
         return self.world_size > 1
 
-    def shard(self, items):
+    def shard(self, items: _Items) -> _Items:
         """This rank's contiguous share of a global minibatch (its length divisible by
         ``world_size``)."""
         size = len(items) // self.world_size
         return items[self.rank * size:(self.rank + 1) * size]
 
-    def device(self, name):
+    def device(self, name: str) -> torch.device:
         """The torch device of this process: one GPU per process on CUDA."""
         if name.startswith("cuda") and self.enabled:
             return torch.device("cuda", self.local_rank)
         return torch.device(name)
 
-    def mean(self, values):
+    def mean(self, values: dict[str, float]) -> dict[str, float]:
         """Mean over the processes of a dict of floats (the same dict on one process)."""
         if not self.enabled:
             return values
@@ -62,12 +68,12 @@ class Distributed:
         dist.all_reduce(tensor)
         return {name: float(value) / self.world_size for name, value in zip(names, tensor)}
 
-    def barrier(self):
+    def barrier(self) -> None:
         if self.enabled:
             dist.barrier()
 
 
-def start(device_name):
+def start(device_name: str) -> Distributed:
     """Join the process group when started by torchrun; returns this process's Distributed."""
     world_size = int(os.environ.get("WORLD_SIZE", "1"))
     if world_size == 1:
@@ -81,7 +87,7 @@ def start(device_name):
     return place
 
 
-def stop(place):
+def stop(place: Distributed) -> None:
     if place.enabled and dist.is_initialized():
         dist.destroy_process_group()
 
@@ -95,7 +101,7 @@ class SynchronizedBatchNorm2d(nn.BatchNorm2d):
     is a plain BatchNorm2d; its state dict is BatchNorm2d's.
     """
 
-    def forward(self, x):  # x: (B, C, H, W)
+    def forward(self, x: torch.Tensor) -> torch.Tensor:  # x: (B, C, H, W)
         if not (self.training and dist.is_available() and dist.is_initialized()
                 and dist.get_world_size() > 1):
             return super().forward(x)
@@ -117,7 +123,7 @@ class SynchronizedBatchNorm2d(nn.BatchNorm2d):
         return x * scale[None, :, None, None] + shift[None, :, None, None]
 
 
-def synchronize_batch_norm(module):
+def synchronize_batch_norm(module: nn.Module) -> nn.Module:
     """Replace every BatchNorm2d of ``module`` with a SynchronizedBatchNorm2d holding the same
     parameters and statistics; returns ``module``."""
     for name, child in module.named_children():

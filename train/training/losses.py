@@ -8,12 +8,14 @@ gives each network exactly its own gradient).
 """
 
 import math
+from collections.abc import Sequence
 
+import numpy as np
 import torch
 from torch.nn import functional
 
 from render.common.exposure import expose
-from render.torch_renderer.renderer import render
+from render.torch_renderer.renderer import ProbeBank, render
 
 LABELS = ("albedo", "normal", "log_specular", "log_roughness")
 ALBEDO_LOSSES = ("linear", "log")
@@ -22,7 +24,8 @@ LOG_ALBEDO_OFFSET = 0.01
 of dark materials lie near 0.02."""
 
 
-def losses(prediction, target, albedo_loss="linear"):
+def losses(prediction: dict[str, torch.Tensor], target: dict[str, torch.Tensor],
+           albedo_loss: str = "linear") -> dict[str, torch.Tensor]:
     """Mean squared error per label that ``prediction`` holds, and their sum under "total".
 
     ``albedo_loss``: "linear", the paper's, on the relative albedo itself; or "log", on
@@ -40,13 +43,15 @@ def losses(prediction, target, albedo_loss="linear"):
     return terms
 
 
-def normal_angle_deg(prediction, target):
+def normal_angle_deg(prediction: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
     """Mean angle (degrees) between predicted and true unit normals (B, 3, H, W)."""
     cosine = (prediction * target).sum(1).clamp(-1.0, 1.0)
     return torch.rad2deg(torch.acos(cosine)).mean()
 
 
-def render_parameters(parameters, probes, probe_index, rotation_deg):
+def render_parameters(parameters: dict[str, torch.Tensor], probes: ProbeBank,
+                      probe_index: torch.Tensor | np.ndarray | Sequence[int],
+                      rotation_deg: torch.Tensor | np.ndarray | Sequence[float]) -> torch.Tensor:
     """HDR torch renders (B, 3, H, W) of label-form parameters (roughness clamped to [0.02, 1])
     under the given probes and rotations."""
     return render(parameters["albedo"], parameters["normal"],
@@ -55,13 +60,15 @@ def render_parameters(parameters, probes, probe_index, rotation_deg):
                   probe_index, rotation_deg)
 
 
-def relit(parameters, probes, probe_index, rotation_deg):
+def relit(parameters: dict[str, torch.Tensor], probes: ProbeBank,
+          probe_index: torch.Tensor | np.ndarray | Sequence[int],
+          rotation_deg: torch.Tensor | np.ndarray | Sequence[float]) -> torch.Tensor:
     """Exposed torch renders (B, 3, H, W) of label-form parameters under the given probes and
     rotations."""
     return expose(render_parameters(parameters, probes, probe_index, rotation_deg))
 
 
-def maps_at_size(parameters, size):
+def maps_at_size(parameters: dict[str, torch.Tensor], size: int) -> dict[str, torch.Tensor]:
     """``parameters`` with its albedo and normal maps box filtered (normals renormalized) to
     ``size`` x ``size``."""
     if parameters["albedo"].shape[-1] == size:
@@ -79,7 +86,10 @@ RELIT_CLAMP_LEAK = 0.01
 clamps it flat), so that a too bright estimate is still pulled down."""
 
 
-def relit_loss(prediction, target, probes, probe_index, rotation_deg, size, form="log"):
+def relit_loss(prediction: dict[str, torch.Tensor], target: dict[str, torch.Tensor],
+               probes: ProbeBank, probe_index: torch.Tensor | np.ndarray | Sequence[int],
+               rotation_deg: torch.Tensor | np.ndarray | Sequence[float], size: int,
+               form: str = "log") -> torch.Tensor:
     """How differently the prediction and the truth look under other lighting, both rendered
     under the given probes and rotations (each sample its own) and exposed as the truth's
     render is exposed. Maps are box filtered to ``size`` px first; a label ``prediction``
@@ -87,10 +97,10 @@ def relit_loss(prediction, target, probes, probe_index, rotation_deg, size, form
 
     - "log": the mean squared difference of log(1 + x) of the renders, not clamped (a too
       bright estimate still gets a gradient; the log compresses highlights);
-    - "rmse": the evaluation's relit error itself (train.evaluation.estimate_evaluation): per sample the
-      root mean squared difference of the renders clamped to [0, 1], averaged over samples;
-      the estimate's clamp leaks (RELIT_CLAMP_LEAK). Squared errors are averaged within a
-      sample before the root, so a few badly relit samples weigh less than in "log"."""
+    - "rmse": the evaluation's relit error itself (train.evaluation.estimate_evaluation): per
+      sample the root mean squared difference of the renders clamped to [0, 1], averaged over
+      samples; the estimate's clamp leaks (RELIT_CLAMP_LEAK). Squared errors are averaged
+      within a sample before the root, so a few badly relit samples weigh less than in "log"."""
     if form not in RELIT_LOSS_FORMS:
         raise ValueError(f"relit loss form {form!r}: one of {RELIT_LOSS_FORMS}")
     truth = maps_at_size({name: target[name] for name in LABELS}, size)
@@ -103,7 +113,8 @@ def relit_loss(prediction, target, probes, probe_index, rotation_deg, size, form
     return clamped_relit_rmse(exposed[1], exposed[0].clamp(0.0, 1.0), RELIT_CLAMP_LEAK).mean()
 
 
-def clamped_relit_rmse(estimate, truth, leak=0.0):
+def clamped_relit_rmse(estimate: torch.Tensor, truth: torch.Tensor,
+                       leak: float = 0.0) -> torch.Tensor:
     """(B,) per image, the RMSE between the exposed ``estimate`` (B, 3, H, W), clamped to
     [0, 1] as the evaluation clamps it, and the clamped exposed ``truth``; the clamp leaks with
     slope ``leak`` beyond [0, 1] (RELIT_CLAMP_LEAK when it is a loss)."""
@@ -117,7 +128,8 @@ MAX_RELATIVE_ALBEDO = 4.0
 colors)."""
 
 
-def clamp_to_valid(prediction, log_specular_range):
+def clamp_to_valid(prediction: dict[str, torch.Tensor],
+                   log_specular_range: tuple[float, float]) -> dict[str, torch.Tensor]:
     """Parameters clamped to the range the renderer and the labels allow: relative albedo in
     [0.01, MAX_RELATIVE_ALBEDO], Ward roughness in [0.02, 1], log relative specular albedo in
     the given range."""

@@ -6,6 +6,7 @@ adds ``weight_decay * w`` to the gradient before the Adam update, which is what 
 ``momentum2`` 0.999 as beta2.
 """
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import torch
@@ -27,12 +28,13 @@ class OptimizerConfig:
     """Adam's beta2 (Caffe's default)."""
 
 
-def inverse_decay(step, config):
+def inverse_decay(step: int, config: OptimizerConfig) -> float:
     """Factor of the initial learning rate at ``step`` under the "inv" policy."""
     return (1.0 + config.lr_gamma * step) ** -config.lr_power
 
 
-def make_optimizer(parameters, config):
+def make_optimizer(parameters: Iterable[torch.nn.Parameter], config: OptimizerConfig
+                   ) -> tuple[torch.optim.Adam, torch.optim.lr_scheduler.LambdaLR]:
     """(Adam optimizer, scheduler): call ``scheduler.step()`` after each ``optimizer.step()``."""
     optimizer = torch.optim.Adam(parameters, lr=config.learning_rate,
                                  betas=(config.momentum, config.momentum2),

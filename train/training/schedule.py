@@ -59,15 +59,15 @@ class Schedule:
         return tuple(steps)
 
     @property
-    def total_steps(self):
+    def total_steps(self) -> int:
         return (self.steps_per_epoch * self.labeled_epochs
                 + self.self_augmented_epochs * len(self._phase_two_epoch))
 
     @property
-    def epochs(self):
+    def epochs(self) -> int:
         return self.labeled_epochs + self.self_augmented_epochs
 
-    def step(self, index):
+    def step(self, index: int) -> Step:
         """The Step of optimizer step ``index`` (0-based)."""
         phase_one = self.steps_per_epoch * self.labeled_epochs
         if index < phase_one:
@@ -76,12 +76,13 @@ class Schedule:
         kind, batch = self._phase_two_epoch[within]
         return Step(self.labeled_epochs + epoch, kind, batch)
 
-    def ends_epoch(self, index):
+    def ends_epoch(self, index: int) -> bool:
         """True when step ``index`` is the last of its epoch."""
         return index + 1 == self.total_steps or self.step(index + 1).epoch != self.step(index).epoch
 
 
-def labeled_batch_indices(seed, epoch, batch, batch_size, count):
+def labeled_batch_indices(seed: int, epoch: int, batch: int, batch_size: int,
+                          count: int) -> np.ndarray:
     """Sample indices of labeled minibatch ``batch`` of ``epoch``."""
     order = np.random.default_rng([seed, epoch]).permutation(count)
     return order[batch * batch_size:(batch + 1) * batch_size]

@@ -11,16 +11,21 @@ consistent with those parameters, so training on it pulls the network toward the
 inverse.
 """
 
+from collections.abc import Sequence
+
 import numpy as np
 import torch
 
 from render.common.exposure import expose
 from render.common.views import random_view
-from render.torch_renderer.renderer import render
+from render.torch_renderer.renderer import ProbeBank, render
+from train.networks.svbrdf_net import SVBRDFNet
 from train.training.losses import clamp_to_valid
 
 
-def random_lightings(rng, count, probe_choices, max_view_angle=0.0):
+def random_lightings(rng: np.random.Generator, count: int,
+                     probe_choices: Sequence[int] | np.ndarray, max_view_angle: float = 0.0
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``count`` random lightings and views drawn from ``rng`` (numpy Generator): probe indices
     (count,) among ``probe_choices`` (indices into the probe bank), rotations in degrees about
     +z (count,) and unit view directions (count, 3)."""
@@ -31,7 +36,7 @@ def random_lightings(rng, count, probe_choices, max_view_angle=0.0):
     return probe_index, rotation_deg, view
 
 
-def provisional_parameters(net, photos):
+def provisional_parameters(net: SVBRDFNet, photos: torch.Tensor) -> dict[str, torch.Tensor]:
     """The network's predictions for ``photos``, with batch norm normalizing by the minibatch's
     own statistics, as in training; the running statistics are left as they were (the provisional
     pass is not a training step). Predicting in evaluation mode instead, with running statistics
@@ -48,7 +53,9 @@ def provisional_parameters(net, photos):
     return prediction
 
 
-def self_augmented_batch(net, photos, probes, lightings, log_specular_range):
+def self_augmented_batch(net: SVBRDFNet, photos: torch.Tensor, probes: ProbeBank,
+                         lightings: Sequence[np.ndarray],
+                         log_specular_range: tuple[float, float]) -> dict[str, torch.Tensor]:
     """A labeled minibatch (image, albedo, normal, log_specular, log_roughness) from ``photos``
     (B, 3, S, S), rendered under ``lightings`` (random_lightings of B)."""
     provisional = provisional_parameters(net, photos)

@@ -7,22 +7,30 @@ under lighting the photo was not taken under (the next probe of the bank, rotate
 180 degrees). The example picture shows those renders beside the maps.
 """
 
+from collections.abc import Sequence
+
 import numpy as np
 import torch
 
 from render.common.color import linear_to_srgb
+from render.torch_renderer.renderer import ProbeBank
+from train.data.labeled_dataset import LabeledDataset
+from train.networks.svbrdf_net import SVBRDFNet
 from train.training.losses import LABELS, normal_angle_deg, relit
 
 EXAMPLES = 4
 
 
-def stack_items(items, device):
+def stack_items(items: Sequence[dict[str, np.ndarray | dict]],
+                device: str | torch.device) -> dict[str, torch.Tensor]:
     """Dataset items -> a dict of (B, ...) float32 tensors of the network input and labels."""
     return {name: torch.as_tensor(np.stack([item[name] for item in items])).to(device)
             for name in ("image",) + LABELS}
 
 
-def evaluate(net, dataset, probes, probe_names, batch_size, device):
+def evaluate(net: SVBRDFNet, dataset: LabeledDataset, probes: ProbeBank, probe_names: list[str],
+             batch_size: int, device: str | torch.device
+             ) -> tuple[dict[str, float], torch.Tensor | None]:
     """(errors dict, example picture (3, H, W) in [0, 1] sRGB-encoded for display)."""
     totals, count, example = {}, 0, None
     net.eval()
@@ -55,7 +63,8 @@ def evaluate(net, dataset, probes, probe_names, batch_size, device):
     return {name: total / count for name, total in totals.items()}, example
 
 
-def example_picture(batch, prediction, relit_prediction, relit_truth):
+def example_picture(batch: dict[str, torch.Tensor], prediction: dict[str, torch.Tensor],
+                    relit_prediction: torch.Tensor, relit_truth: torch.Tensor) -> torch.Tensor:
     """Rows of up to EXAMPLES samples: input | albedo predicted | albedo true | normal predicted
     | normal true (encoded (n + 1) / 2) | relit predicted | relit true, as one (3, H, W) display
     image."""

@@ -1,14 +1,14 @@
 """The training loop of ``sa-train``: SVBRDF-net with or without self-augmentation.
 
-``run(cfg)`` trains on a ``render-dataset`` output, following train.training.schedule: labeled epochs,
-then epochs that interleave self-augmented minibatches (train.training.self_augmentation) with labeled
-ones; without ``unlabeled`` data the same schedule runs on labeled minibatches alone (the
-baseline). Into ``out`` it writes:
+``run(cfg)`` trains on a ``render-dataset`` output, following train.training.schedule: labeled
+epochs, then epochs that interleave self-augmented minibatches (train.training.self_augmentation)
+with labeled ones; without ``unlabeled`` data the same schedule runs on labeled minibatches alone
+(the baseline). Into ``out`` it writes:
 
     config.json            the resolved configuration; a re-run continues only with the same
                            options, except MAY_CHANGE (render.common.resume)
-    checkpoints/           step-000001000.pt ... (train.networks.checkpoints); a run resumes from the
-                           newest and continues exactly as if it had not stopped
+    checkpoints/           step-000001000.pt ... (train.networks.checkpoints); a run resumes from
+                           the newest and continues exactly as if it had not stopped
     tensorboard/           scalars (losses, learning rate, test errors) and example images
     history.json           every logged loss and every evaluation, also in the checkpoints
     loss_curves.png        training losses and test errors over the steps
@@ -27,6 +27,7 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -91,9 +92,9 @@ class TrainConfig:
     fine-tuning; its network configuration must equal ``network`` but for the fields of
     FRESH_WHEN_CHANGED (Run._initialize_from). None: random weights."""
     train_networks: tuple = tuple(PARTS)
-    """The networks trained (names of train.networks.svbrdf_net.PARTS). The others keep their weights
-    (from ``init_from``), stay in evaluation mode and are not run in labeled steps: the paper
-    trains its three networks separately, and training the homogeneous network alone costs
+    """The networks trained (names of train.networks.svbrdf_net.PARTS). The others keep their
+    weights (from ``init_from``), stay in evaluation mode and are not run in labeled steps: the
+    paper trains its three networks separately, and training the homogeneous network alone costs
     about a third of a whole step."""
     render_size: int = 512
     """With ``labeled_maps``: the shorter side the material maps are resampled to before
@@ -162,7 +163,8 @@ class TrainConfig:
 class Run:
     """The state of one training run (in one process): data, network, optimizer, history."""
 
-    def __init__(self, cfg, place=distributed.Distributed()):
+    def __init__(self, cfg: TrainConfig,
+                 place: distributed.Distributed = distributed.Distributed()):
         self.cfg, self.place = cfg, place
         self.device = place.device(cfg.device)
         if cfg.batch_size % place.world_size:
@@ -329,19 +331,19 @@ class Run:
                  len(chosen), len(images))
         return images, chosen
 
-    def parallelize(self):
+    def parallelize(self) -> None:
         """Under torchrun: wrap the network for data-parallel steps (after any resume: the
         wrapper starts from rank 0's weights)."""
         if self.place.enabled:
             self.model = torch.nn.parallel.DistributedDataParallel(self.net)
 
-    def state(self):
+    def state(self) -> dict[str, Any]:
         return {"config": dataclasses.asdict(self.cfg), "model": self.net.state_dict(),
                 "optimizer": self.optimizer.state_dict(),
                 "scheduler": self.scheduler.state_dict(), "step": self.step,
                 "torch_rng": torch.get_rng_state(), "history": self.history}
 
-    def resume(self, path):
+    def resume(self, path: str | Path) -> None:
         state = load_checkpoint(path)
         self.net.load_state_dict(state["model"])
         self.optimizer.load_state_dict(state["optimizer"])
@@ -350,7 +352,7 @@ class Run:
         self.step, self.history = state["step"], state["history"]
         log.info("resumed from %s at step %d", path, self.step)
 
-    def minibatch(self, index):
+    def minibatch(self, index: int) -> dict[str, torch.Tensor | list[dict]]:
         """This process's shard of the (image, labels) minibatch of optimizer step ``index``.
 
         The global minibatch and its random choices are drawn from (seed, step) alone; each
@@ -373,11 +375,12 @@ class Run:
                                         self.cfg.batch_size, len(self.train_set))
         return stack_items([self.train_set[int(i)] for i in shard(indices)], self.device)
 
-    def train_step(self, index):
+    def train_step(self, index: int) -> dict[str, float]:
         """One optimizer step; returns the losses of the global minibatch."""
         return self.optimize(index, self.minibatch(index))
 
-    def optimize(self, index, batch):
+    def optimize(self, index: int,
+                 batch: dict[str, torch.Tensor | list[dict]]) -> dict[str, float]:
         """The optimizer step ``index`` on ``batch`` (this process's shard of its minibatch);
         returns the losses of the global minibatch."""
         self.model.train()
@@ -418,7 +421,7 @@ class Run:
                           self.cfg.relit_loss_form)
 
 
-def run(cfg):
+def run(cfg: TrainConfig) -> dict[str, list[dict[str, float]]]:
     """Train (or resume) the run ``cfg``; returns its history."""
     place = distributed.start(cfg.device)
     try:

@@ -47,7 +47,7 @@ DIELECTRIC_LOOKING_F0 = 0.2
 dielectric, its base color is in its albedo, and it becomes a dark film of ``film`` times it."""
 
 
-def material_class_of(svbrdf):
+def material_class_of(svbrdf: ReducedSVBRDF) -> str | None:
     """The class of a real set: its material.json ``class``, else a class word in its name."""
     if svbrdf.material_class:
         return svbrdf.material_class
@@ -58,7 +58,8 @@ def material_class_of(svbrdf):
     return None
 
 
-def sample_augmentation(rng, material_class, source_names, blend_probability=0.35):
+def sample_augmentation(rng: np.random.Generator, material_class: str, source_names: list[str],
+                        blend_probability: float = 0.35) -> dict:
     """Draw one augmentation of ``material_class`` from the named sources (a JSON dict)."""
     recolor = CLASS_RECOLOR[material_class]
     parameters = {
@@ -82,7 +83,8 @@ def sample_augmentation(rng, material_class, source_names, blend_probability=0.3
     return parameters
 
 
-def augment(parameters, sources, size, name, material_class):
+def augment(parameters: dict, sources: dict[str, ReducedSVBRDF], size: int, name: str,
+            material_class: str) -> ReducedSVBRDF:
     """The augmented ReducedSVBRDF; ``sources`` maps source names to loaded real sets."""
     albedo, normal = _crop_and_turn(sources[parameters["source"]], parameters, size)
     specular = sources[parameters["source"]].specular.astype(np.float64)

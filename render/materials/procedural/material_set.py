@@ -12,17 +12,19 @@ import numpy as np
 
 from render.materials.procedural import metal, plastic, wood
 from render.materials.procedural.augment import augment, sample_augmentation
+from render.materials.reduced_svbrdf import ReducedSVBRDF
 
 GENERATORS = {"wood": wood, "plastic": plastic, "metal": metal}
 GENERATOR_NAME = "make-materials"
 VERSION = 1
 
 
-def set_name(material_class, seed, index, augmented):
+def set_name(material_class: str, seed: int, index: int, augmented: bool) -> str:
     return f"{material_class}_{'aug_' if augmented else ''}s{seed}_{index:04d}"
 
 
-def draw_metadata(material_class, seed, index, resolution, augment_sources=None):
+def draw_metadata(material_class: str, seed: int, index: int, resolution: int,
+                  augment_sources: dict[str, ReducedSVBRDF] | None = None) -> dict:
     """The metadata of set ``index``: every parameter drawn, nothing generated yet.
 
     ``augment_sources`` maps real set names to loaded sets when augmenting.
@@ -39,7 +41,8 @@ def draw_metadata(material_class, seed, index, resolution, augment_sources=None)
     return metadata
 
 
-def regenerate(metadata, augment_sources=None):
+def regenerate(metadata: dict,
+               augment_sources: dict[str, ReducedSVBRDF] | None = None) -> ReducedSVBRDF:
     """The ReducedSVBRDF that ``metadata`` describes."""
     material_class = metadata["class"]
     name = set_name(material_class, metadata["seed"], metadata["index"],

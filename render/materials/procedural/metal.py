@@ -30,7 +30,7 @@ RUST_ROUGHNESS = 0.9
 RUST_IOR = 1.5
 
 
-def sample_parameters(rng):
+def sample_parameters(rng: np.random.Generator) -> dict:
     """Draw every parameter of one metal material (a JSON-serializable dict)."""
     finish = str(rng.choice(FINISHES))
     metals = RUSTING_METALS if finish == "corroded" else SURFACE_METALS
@@ -69,7 +69,7 @@ def sample_parameters(rng):
     return parameters
 
 
-def generate(parameters, size):
+def generate(parameters: dict, size: int) -> Surface:
     """The metal surface of ``parameters`` sampled on a size x size tile."""
     p = parameters
     x, y = pixel_positions(size)

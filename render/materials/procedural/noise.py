@@ -16,13 +16,14 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 
-def pixel_positions(size):
+def pixel_positions(size: int) -> tuple[np.ndarray, np.ndarray]:
     """(x, y) of the pixel centres, each (size, size), in tile units (y grows downward)."""
     coordinate = (np.arange(size, dtype=np.float64) + 0.5) / size
     return np.meshgrid(coordinate, coordinate)
 
 
-def gaussian_noise(size, seed, low, high, slope=1.0, stretch=1.0, angle_deg=0.0):
+def gaussian_noise(size: int, seed: int, low: float, high: float, slope: float = 1.0,
+                   stretch: float = 1.0, angle_deg: float = 0.0) -> np.ndarray:
     """Zero-mean, unit-variance tileable Gaussian noise.
 
     Its amplitude spectrum is ``rho^-slope`` on the band ``low <= rho <= high`` (cycles per tile)
@@ -72,7 +73,7 @@ def _resample_spectrum(spectrum, grid, size):
     return (np.fft.ifft2(resized).real * (size * size) / (grid * grid)).astype(np.float32)
 
 
-def cellular(size, seed, count):
+def cellular(size: int, seed: int, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Periodic Worley noise over ``count`` uniformly scattered feature points.
 
     Returns ``(f1, f2, cell)``: the distances (tile units) from each pixel to its nearest and
@@ -87,14 +88,15 @@ def cellular(size, seed, count):
             distances[:, 1].reshape(shape).astype(np.float32), cells[:, 0].reshape(shape))
 
 
-def wrapped_offset(x, y, centre_x, centre_y):
+def wrapped_offset(x: np.ndarray, y: np.ndarray, centre_x: float,
+                   centre_y: float) -> tuple[np.ndarray, np.ndarray]:
     """Offsets (dx, dy) from a point to pixels, by the shortest way across the wrapped tile."""
     dx = (x - centre_x + 0.5) % 1.0 - 0.5
     dy = (y - centre_y + 0.5) % 1.0 - 0.5
     return dx, dy
 
 
-def smoothstep(edge0, edge1, value):
+def smoothstep(edge0: float, edge1: float, value: np.ndarray) -> np.ndarray:
     """Hermite step from 0 at ``edge0`` to 1 at ``edge1``."""
     t = np.clip((value - edge0) / (edge1 - edge0), 0.0, 1.0)
     return t * t * (3.0 - 2.0 * t)

@@ -15,6 +15,7 @@ so that a lightness or hue change looks like the same change on every color.
 
 import json
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -55,7 +56,7 @@ class MeasuredMaterial:
     ior: float
 
     @property
-    def specular(self):
+    def specular(self) -> tuple[float, float, float]:
         """Normal-incidence reflectance F0, linear RGB, each channel clipped to [0, 1]."""
         if self.metalness >= 0.5:
             return tuple(float(c) for c in np.clip(self.color, 0.0, 1.0))
@@ -63,7 +64,7 @@ class MeasuredMaterial:
 
 
 @cache
-def measured_materials():
+def measured_materials() -> tuple[MeasuredMaterial, ...]:
     """Every material of the bundled database, in file order."""
     entries = json.loads(MEASURED_FILE.read_text())
     return tuple(MeasuredMaterial(entry["name"], entry["category"][0], tuple(entry["color"]),
@@ -71,7 +72,7 @@ def measured_materials():
                                   float(entry["ior"])) for entry in entries)
 
 
-def measured(name):
+def measured(name: str) -> MeasuredMaterial:
     """The measured material of that name."""
     for material in measured_materials():
         if material.name == name:
@@ -79,12 +80,12 @@ def measured(name):
     raise KeyError(f"{name} is not in {MEASURED_FILE.name}")
 
 
-def plastics():
+def plastics() -> tuple[MeasuredMaterial, ...]:
     """The database's plastics (clear resins: their index of refraction is what they give)."""
     return tuple(m for m in measured_materials() if m.category == "Plastic")
 
 
-def pigment_colors():
+def pigment_colors() -> tuple[tuple, ...]:
     """Diffuse albedos of the opaque, colored dielectrics of the database (plastic dyes are
     drawn from these: the database's plastics themselves are clear)."""
     return tuple(m.color for m in measured_materials()
@@ -92,12 +93,13 @@ def pigment_colors():
                  and max(m.color) < 0.99)
 
 
-def fresnel_f0(ior):
+def fresnel_f0(ior: float) -> float:
     """Normal-incidence Fresnel reflectance of a dielectric in air."""
     return float(((ior - 1.0) / (ior + 1.0)) ** 2)
 
 
-def vary_color(rgb, lightness=1.0, chroma=1.0, hue_deg=0.0):
+def vary_color(rgb: np.ndarray | Sequence[float], lightness: float = 1.0, chroma: float = 1.0,
+               hue_deg: float = 0.0) -> np.ndarray:
     """``rgb`` with its Oklab lightness and chroma scaled and its hue turned; clipped to
     [0.005, 1] (no real surface is perfectly black or reflects more than it receives)."""
     space = colour.RGB_COLOURSPACES["sRGB"]

@@ -35,7 +35,7 @@ def _dye(rng):
                       rng.uniform(-25, 25)).tolist()
 
 
-def sample_parameters(rng):
+def sample_parameters(rng: np.random.Generator) -> dict:
     """Draw every parameter of one plastic material (a JSON-serializable dict)."""
     resin = plastics()[rng.integers(len(plastics()))]
     appearance = str(rng.choice(APPEARANCES))
@@ -69,7 +69,7 @@ def sample_parameters(rng):
     return parameters
 
 
-def generate(parameters, size):
+def generate(parameters: dict, size: int) -> Surface:
     """The plastic surface of ``parameters`` sampled on a size x size tile."""
     p = parameters
     x, y = pixel_positions(size)

@@ -11,7 +11,9 @@ import numpy as np
 from render.materials.procedural.noise import smoothstep, wrapped_offset
 
 
-def sample_scratches(rng, count, length_range, width_range, angle_deg=None, spread_deg=180.0):
+def sample_scratches(rng: np.random.Generator, count: int, length_range: tuple[float, float],
+                     width_range: tuple[float, float], angle_deg: float | None = None,
+                     spread_deg: float = 180.0) -> list[dict]:
     """``count`` scratches; directions spread ``spread_deg`` around ``angle_deg`` (random if
     None). JSON-serializable."""
     centre_angle = rng.uniform(0, 180) if angle_deg is None else angle_deg
@@ -22,7 +24,7 @@ def sample_scratches(rng, count, length_range, width_range, angle_deg=None, spre
              "strength": float(rng.uniform(0.3, 1.0))} for _ in range(count)]
 
 
-def scratch_profile(scratches, x, y):
+def scratch_profile(scratches: list[dict], x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Coverage in [0, 1] (the strongest scratch at each pixel) on positions (x, y).
 
     A scratch narrower than two pixels is drawn two pixels wide and proportionally fainter, so

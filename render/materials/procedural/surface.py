@@ -29,7 +29,7 @@ class Surface:
     roughness: np.ndarray | float
     """Perceptual roughness r, a number or (S, S)."""
 
-    def reduced(self, name, material_class, sources):
+    def reduced(self, name: str, material_class: str | None, sources: dict) -> ReducedSVBRDF:
         """The ReducedSVBRDF of this surface."""
         f0 = np.asarray(self.f0, np.float64).reshape(-1, 3).mean(0)
         alpha = float(np.clip(np.mean(np.asarray(self.roughness, np.float64) ** 2), *ALPHA_RANGE))
@@ -38,7 +38,7 @@ class Surface:
                              f0.astype(np.float32), alpha, sources, material_class)
 
 
-def height_to_normal(height):
+def height_to_normal(height: np.ndarray) -> np.ndarray:
     """Unit normals (S, S, 3) float32 of the surface z = height(x, y).
 
     Slopes are central differences that wrap around the tile's edges, so a tileable height gives

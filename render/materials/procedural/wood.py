@@ -32,7 +32,7 @@ FINISH_ROUGHNESS = {"varnished": (0.2, 0.45), "raw": (0.55, 0.85)}
 matter and 0 for lacquered surfaces (car paint, porcelain); varnish is rarely that glossy."""
 
 
-def sample_parameters(rng):
+def sample_parameters(rng: np.random.Generator) -> dict:
     """Draw every parameter of one wood material (a JSON-serializable dict)."""
     a, b = GRAIN_DIRECTIONS[rng.choice(len(GRAIN_DIRECTIONS),
                                        p=np.divide(GRAIN_DIRECTION_WEIGHTS,
@@ -85,7 +85,7 @@ def sample_parameters(rng):
     }
 
 
-def generate(parameters, size):
+def generate(parameters: dict, size: int) -> Surface:
     """The wood surface of ``parameters`` sampled on a size x size tile."""
     p = parameters
     a, b = p["direction"]
