@@ -37,10 +37,10 @@ demo: setup
 	$(BIN)/sa-estimate scenes/photos/brick-reference-01.jpg --model $(DEMO_OUT)/train \
 		--out $(DEMO_OUT)/estimate-demo-run --probe probes/env-studio.exr
 	$(BIN)/sa-estimate scenes/photos/brick-reference-01.jpg --out $(DEMO_OUT)/estimate
-	@echo "Estimate with the shipped network the material classifier picks: $(DEMO_OUT)/estimate/report.html"
+	@echo "Estimate with the default shipped network: $(DEMO_OUT)/estimate/report.html"
 	$(BIN)/sa-evaluate --materials scenes/materials --probes probes \
 		--samples 4 --relights 2 --out $(DEMO_OUT)/evaluate
-	@echo "Estimates against the truth and the naive baseline (the bundled sets are training data of the classifier and the general network, not a held-out test; held-out figures: models/README.md): $(DEMO_OUT)/evaluate/figure.png"
+	@echo "Estimates against the truth and the naive baseline (the bundled sets are not a held-out test; real-set validation and test figures: models/README.md): $(DEMO_OUT)/evaluate/figure.png"
 	$(BIN)/check-renderer --probes probes --svbrdfs scenes/materials --size 64 \
 		--out $(DEMO_OUT)/check-renderer
 	@echo "Mitsuba | torch | 10x difference: $(DEMO_OUT)/check-renderer/*.png"

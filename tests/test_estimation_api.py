@@ -56,6 +56,29 @@ def test_bad_arrays_get_one_clear_line(estimator, pixels, message):
         estimator.estimate(pixels)
 
 
+# The bundled brick photo holds a ColorChecker; its two lightest neutral patches, as (top,
+# bottom, left, right) pixel boxes inside the patches of the 256 x 192 photo (looked up on it).
+LIGHTEST_NEUTRAL_PATCHES = ((92, 101, 108, 117), (92, 101, 124, 135))
+
+
+def chroma(pixels):
+    """(max - min) / mean of the mean linear RGB colour of (h, w, 3) pixels."""
+    colour = pixels.reshape(-1, 3).mean(0)
+    return float((colour.max() - colour.min()) / colour.mean())
+
+
+def test_the_default_estimate_keeps_neutral_patches_neutral():
+    """The photo's own chroma of the patches is about 0.005; an albedo that turns them blue
+    (0.3, the classifier's pick in an earlier release) fails."""
+    from train.data.photos import read_linear_photo
+    photo = read_linear_photo(PHOTO)
+    albedo = Estimator().estimate(photo).albedo
+    assert albedo.shape == photo.shape
+    for top, bottom, left, right in LIGHTEST_NEUTRAL_PATCHES:
+        assert chroma(photo[top:bottom, left:right]) < 0.01  # the boxes are on the patches
+        assert chroma(albedo[top:bottom, left:right]) <= 0.05
+
+
 def test_the_readme_example_runs():
     readme = (REPO / "README.md").read_text()
     section = readme[readme.index("### Python API"):]
@@ -65,4 +88,4 @@ def test_the_readme_example_runs():
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
     assert lines[0] == "(192, 256, 3) (192, 256, 3)"
-    assert "svbrdf-" in lines[2]
+    assert lines[2].endswith("svbrdf-plastic.safetensors")

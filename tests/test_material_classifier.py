@@ -115,9 +115,10 @@ def test_the_router_gives_the_network_of_the_class_it_picks():
     assert net.source == chosen["model"] and chosen["class_probabilities"]["metal"] > 0.99
 
 
-def test_sa_estimate_by_default_says_which_network_the_classifier_chose(tmp_path):
+def test_sa_estimate_with_class_auto_says_which_network_the_classifier_chose(tmp_path):
     photo = REPO / "scenes" / "photos" / "brick-reference-01.jpg"
-    result = CliRunner().invoke(sa_estimate, [str(photo), "--out", str(tmp_path / "est")])
+    result = CliRunner().invoke(sa_estimate, [str(photo), "--class", "auto", "--out",
+                                              str(tmp_path / "est")])
     assert result.exit_code == 0, result.output
     report = json.loads(result.stdout.strip().splitlines()[-1])
     assert report["class"] in ROUTES

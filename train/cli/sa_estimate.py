@@ -9,7 +9,7 @@ from render.common.errors import InputError
 from train.estimation.batch import DEFAULT_PROBES, EstimateConfig, run
 from train.estimation.estimator import Estimator
 from train.estimation.full_resolution import MAX_SIDE
-from train.estimation.network_choice import AUTO
+from train.estimation.network_choice import AUTO, DEFAULT_CLASS
 from train.networks.model_files import SHIPPED
 
 
@@ -18,9 +18,12 @@ from train.networks.model_files import SHIPPED
 @click.option("--model", type=click.Path(), default=None,
               help="A model file (.safetensors), an sa-train checkpoint (.pt) or a run folder "
                    "(its newest checkpoint). Default: the shipped network of --class.")
-@click.option("--class", "material_class", type=click.Choice((AUTO,) + SHIPPED), default=AUTO,
-              show_default=True, help="Shipped network to use when no --model is given; "
-                                      "auto: the one the material classifier picks per photo.")
+@click.option("--class", "material_class", type=click.Choice((AUTO,) + SHIPPED),
+              default=DEFAULT_CLASS,
+              show_default=True,
+              help="Shipped network to use when no --model is given (the default relit real "
+                   "materials best on the real-set validation, models/README.md); auto: the "
+                   "one the material classifier picks per photo.")
 @click.option("--out", required=True, type=click.Path(), help="Output folder.")
 @click.option("--probe", "probes", type=click.Path(), multiple=True,
               help="HDR probe to relight the estimate under (repeat for several; the first "

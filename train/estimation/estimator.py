@@ -2,14 +2,14 @@
 
     from train.estimation import Estimator
 
-    estimator = Estimator()                    # the shipped networks, picked per photo
+    estimator = Estimator()                    # the default shipped network
     result = estimator.estimate_file("photo.jpg")
     result.albedo, result.normal               # (H, W, 3) float32 maps over the whole photo
     result.specular_albedo, result.roughness   # the homogeneous Ward lobe
 
 An Estimator loads its networks once (train.estimation.network_choice: a given model file, a
-shipped class network, or, by default, the shipped network the material classifier picks for
-each photo) and estimates any number of photos. ``sa-estimate`` (train.estimation.batch) is
+shipped class network, by default DEFAULT_CLASS's, or the one the material classifier picks
+for each photo) and estimates any number of photos. ``sa-estimate`` (train.estimation.batch) is
 built on it, so a script gets exactly what the command writes.
 
 The estimate of a photo, as sa-evaluate measures it:
@@ -35,7 +35,7 @@ import torch
 from render.materials.reduced_svbrdf import ReducedSVBRDF
 from train.data.photos import MAX_PHOTO_ASPECT, MIN_PHOTO_SIDE, network_view, read_linear_photo
 from train.estimation.full_resolution import MAX_SIDE, full_resolution_maps
-from train.estimation.network_choice import AUTO, network_choice
+from train.estimation.network_choice import DEFAULT_CLASS, network_choice
 from train.networks.svbrdf_net import SVBRDFNet
 
 
@@ -81,7 +81,7 @@ class Estimate:
 class Estimator:
     """Networks loaded once, to estimate photos (the module docstring)."""
 
-    def __init__(self, model: str | Path | None = None, material_class: str = AUTO,
+    def __init__(self, model: str | Path | None = None, material_class: str = DEFAULT_CLASS,
                  device: str = "cpu", max_side: int = MAX_SIDE):
         """``model``: a model file (.safetensors), an sa-train checkpoint (.pt) or a run folder;
         without one, the shipped network of ``material_class`` (general, wood, plastic,
