@@ -28,7 +28,8 @@ from pathlib import Path
 
 import click
 
-from render.dataset.generator import DatasetConfig, run
+from render.dataset.config import DatasetConfig
+from render.dataset.generator import run
 from train.networks.checkpoints import checkpoint_files, load_checkpoint
 
 REPO = Path(__file__).resolve().parent.parent

@@ -6,7 +6,7 @@ import pytest
 
 from render.common.exposure import exposure_scale
 from render.common.probes import load_probe
-from render.dataset.generator import DatasetConfig
+from render.dataset.config import DatasetConfig
 from render.materials.reduced_svbrdf import load_material, resample
 from render.mitsuba_reference.scene import PlanarSampleRenderer
 from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES

@@ -8,7 +8,8 @@ from typing import Any
 import click
 
 from render.common.errors import InputError
-from render.dataset.generator import DatasetConfig, run
+from render.dataset.config import DatasetConfig
+from render.dataset.generator import run
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})

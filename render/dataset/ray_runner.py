@@ -17,11 +17,11 @@ Ray is imported only here, so render-dataset without ``--ray`` never needs it.
 
 import logging
 from collections.abc import Iterator
-from typing import Any
 
 import ray
 
 from render.common.probes import load_probe
+from render.dataset.config import DatasetConfig
 from render.dataset.tasks import Task, TaskRenderer, TaskResult
 from render.materials.reduced_svbrdf import load_material, resample
 
@@ -40,7 +40,7 @@ def _render_chunk(cfg, tasks, input_refs):
     return [_renderers[cfg].render(task) for task in tasks]
 
 
-def connect(cfg: Any) -> None:
+def connect(cfg: DatasetConfig) -> None:
     """Join the cluster at ``cfg.ray``, or start a Ray instance here for ``local``."""
     if ray.is_initialized():
         return
@@ -52,7 +52,7 @@ def connect(cfg: Any) -> None:
     log.info("Ray cluster: %s CPUs", ray.cluster_resources().get("CPU", 0))
 
 
-def render_on_ray(cfg: Any, tasks: list[Task]) -> Iterator[TaskResult]:
+def render_on_ray(cfg: DatasetConfig, tasks: list[Task]) -> Iterator[TaskResult]:
     """Yield the TaskResult of every task in ``tasks``, in completion order."""
     if not tasks:
         return

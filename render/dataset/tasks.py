@@ -15,7 +15,6 @@ import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -24,6 +23,7 @@ from render.common.exposure import expose_numpy
 from render.common.labels import relative_labels, rotate_quarter_turns
 from render.common.probes import Probe, load_probe
 from render.common.views import random_view
+from render.dataset.config import DatasetConfig
 from render.materials.reduced_svbrdf import ReducedSVBRDF, load_material, resample
 
 
@@ -47,7 +47,7 @@ def split_names(names: list[str], fraction: float, seed: int, salt: int) -> set[
     return {names[i] for i in order[:count]}
 
 
-def plan_tasks(cfg: Any, materials: list[Path], probes: list[Path]) -> list[Task]:
+def plan_tasks(cfg: DatasetConfig, materials: list[Path], probes: list[Path]) -> list[Task]:
     test_materials = split_names([m.name for m in materials], cfg.test_materials, cfg.seed, 1)
     test_probes = split_names([p.stem for p in probes], cfg.test_probes, cfg.seed, 2)
     tasks = []
@@ -61,7 +61,7 @@ def plan_tasks(cfg: Any, materials: list[Path], probes: list[Path]) -> list[Task
     return tasks
 
 
-def task_rng(cfg: Any, task: Task) -> np.random.Generator:
+def task_rng(cfg: DatasetConfig, task: Task) -> np.random.Generator:
     """The generator of every random choice of a task, independent of run order."""
     key = [cfg.seed, zlib.crc32(task.material.name.encode()), zlib.crc32(task.probe.stem.encode()),
            task.rotation]
@@ -76,7 +76,7 @@ class TaskRenderer:
     otherwise they are read from disk.
     """
 
-    def __init__(self, cfg: Any, threads: int | None = None,
+    def __init__(self, cfg: DatasetConfig, threads: int | None = None,
                  inputs: dict[Path, Callable[[], ReducedSVBRDF | Probe]] | None = None):
         from render.mitsuba_reference.scene import PlanarSampleRenderer  # imports Mitsuba
 
