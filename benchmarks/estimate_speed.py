@@ -45,15 +45,12 @@ def main(device, repeats):
     photo_affine = dataclasses.replace(COMPACT_CONFIG, albedo_network="photo-affine")
     joint = dataclasses.replace(photo_affine, joint_reading=True)
     corrected = dataclasses.replace(joint, albedo_correction=True)
-    averaged = dataclasses.replace(corrected, view_averaging=True)
     for name, config in (("paper", NetworkConfig()), ("compact", COMPACT_CONFIG),
                          ("compact, joint reading", map_joint),
                          ("compact, photo-affine albedo", photo_affine),
                          ("compact, photo-affine albedo, joint reading", joint),
                          ("compact, photo-affine albedo, joint reading, albedo correction",
                           corrected),
-                         ("compact, photo-affine albedo, joint reading, albedo correction, "
-                          "view averaging", averaged),
                          ("small", SMALL_CPU_CONFIG)):
         net = SVBRDFNet(config).to(device).eval()
         photo = torch.rand(1, 3, config.input_size, config.input_size, device=device)

@@ -1,4 +1,5 @@
-"""Benchmark of full-resolution maps (train.estimation.full_resolution) with the shipped general model:
+"""Benchmark of full-resolution maps (train.estimation.full_resolution) with the shipped general
+model:
 seconds per photo for a 1024x1024 and a 2048x1536 photo (the bundled photo resized, so the
 network sees texture), and the process's peak resident memory. Prints JSON.
 

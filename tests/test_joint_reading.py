@@ -23,7 +23,6 @@ from train.networks.svbrdf_net import (
     JointReading,
     NetworkConfig,
     SVBRDFNet,
-    dihedral_views,
     photo_affine_albedo,
     photo_statistics,
 )
@@ -165,44 +164,3 @@ def test_a_model_file_keeps_the_head(tmp_path, config):
         a, b = net(image), loaded(image)
     for name in a:  # float16 weights in the file
         assert torch.allclose(a[name], b[name], rtol=1e-2, atol=1e-2), name
-
-
-def test_view_averaging_needs_the_joint_reading_head():
-    with pytest.raises(ValueError, match="joint reading head"):
-        dataclasses.replace(TINY_AFFINE, view_averaging=True)
-
-
-def test_dihedral_views_are_the_turns_and_mirrored_turns():
-    image = torch.arange(2 * 3 * 4 * 4, dtype=torch.float32).reshape(2, 3, 4, 4)
-    views = dihedral_views(image)
-    assert views.shape == (16, 3, 4, 4)
-    # view-major: view 1 (a quarter turn counter-clockwise) of image 0 is row 2
-    assert torch.equal(views[2, 0, 0], image[0, 0, :, -1])  # its top row: the right column
-    assert torch.equal(views[8], image[0].flip(2))  # view 4: the mirror image
-    assert len({tuple(v.flatten().tolist()) for v in views[::2]}) == 8  # 8 distinct views
-
-
-def test_view_averaging_reads_the_mean_of_the_eight_views():
-    torch.manual_seed(0)
-    net = SVBRDFNet(dataclasses.replace(TINY_AFFINE, joint_reading=True)).eval()
-    averaged = SVBRDFNet(dataclasses.replace(net.config, view_averaging=True)).eval()
-    averaged.load_state_dict(net.state_dict())
-    with torch.no_grad():
-        net.joint.mlp[2].bias.copy_(torch.tensor([0.5, 0.5, 0.5, -1.0, 2.0]))
-        averaged.joint.mlp[2].bias.copy_(torch.tensor([0.5, 0.5, 0.5, -1.0, 2.0]))
-    image = torch.rand(2, 3, 32, 32)
-    with torch.no_grad():
-        one_by_one = [net.joint_readings(dihedral_views(image[i:i + 1])) for i in range(2)]
-        outputs = averaged(image)
-        plain = net(image)
-    expected_roughness = torch.cat([r[1].mean(0, keepdim=True) for r in one_by_one])
-    expected_logit = torch.cat([r[2].mean(0, keepdim=True) for r in one_by_one])
-    assert torch.allclose(outputs["log_roughness"], expected_roughness, atol=1e-5)
-    assert torch.allclose(outputs["albedo"], photo_affine_albedo(expected_logit, image),
-                          atol=1e-5)
-    assert (outputs["log_roughness"] - plain["log_roughness"]).abs().max() > 1e-4
-    assert torch.allclose(outputs["normal"], plain["normal"])  # the normals are not averaged
-    symmetric = torch.rand(1, 3, 1, 1).expand(1, 3, 32, 32)  # the same in every view
-    with torch.no_grad():
-        for a, b in zip(averaged.joint_readings(symmetric), net.joint_readings(symmetric)):
-            assert torch.allclose(a, b, atol=1e-5)

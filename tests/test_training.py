@@ -481,19 +481,18 @@ def test_a_photo_affine_albedo_network_starts_from_the_homogeneous_analysis(
 
 def test_init_from_a_model_with_parts_fit_after_training_loads_its_networks_only(
         trained_run, dataset, tmp_path):
-    """A joint reading head (with view averaging) and an albedo correction read the networks
+    """A joint reading head and an albedo correction read the networks
     as they were; a run that trains them starts without them."""
     config = dataclasses.replace(load_network(trained_run).config,
                                  albedo_network="photo-affine", joint_reading=True,
-                                 albedo_correction=True, view_averaging=True)
+                                 albedo_correction=True)
     torch.manual_seed(0)
     model = SVBRDFNet(config)
     save_model(model, tmp_path / "joint.safetensors", {"class": "plastic"})
     run = Run(TrainConfig(dataset=str(dataset), out=str(tmp_path / "unused"),
                           probes=str(BUNDLED_PROBES), init_from=str(tmp_path / "joint.safetensors"),
                           network=dataclasses.replace(config, joint_reading=False,
-                                                      albedo_correction=False,
-                                                      view_averaging=False),
+                                                      albedo_correction=False),
                           train_networks=("homogeneous",)))
     assert not hasattr(run.net, "joint") and not hasattr(run.net, "correction")
     saved = load_network(tmp_path / "joint.safetensors")

@@ -36,8 +36,7 @@ All three networks share the structure of their analysis sub-network: ``levels``
   map albedo network the head corrects the homogeneous network's readings for the relit
   error they cause (a roughness read too low costs more than one read too high). The head is
   fit after the networks, on the evaluation's relit error (train.fits.joint_reading), and starts
-  as the identity (its last layer zero). With ``view_averaging``, its readings are averaged
-  over the photo's 8 dihedral views.
+  as the identity (its last layer zero).
 - ``AlbedoCorrection`` (``albedo_correction=True``, beside a photo-affine albedo network): a
   small local network that multiplies the photo-affine albedo by a gain per pixel and channel,
   read from the albedo's neighbourhood (about 33 px) and its mean features over the photo.
@@ -89,9 +88,6 @@ class NetworkConfig:
     albedo_correction: bool = False
     """An AlbedoCorrection network refines the albedo locally (needs the photo-affine albedo
     network)."""
-    view_averaging: bool = False
-    """The JointReading head's readings (specular albedo, roughness, and reflection share)
-    are their mean over the photo's 8 dihedral views (needs the joint reading head)."""
 
     def __post_init__(self):
         if self.albedo_network not in ALBEDO_NETWORKS:
@@ -102,8 +98,6 @@ class NetworkConfig:
                              f"{', '.join(HOMOGENEOUS_POOLINGS)}")
         if self.albedo_correction and self.albedo_network != "photo-affine":
             raise ValueError("albedo_correction needs the photo-affine albedo network")
-        if self.view_averaging and not self.joint_reading:
-            raise ValueError("view_averaging needs the joint reading head")
         if self.input_size % 2 ** self.levels:
             raise ValueError(f"input_size {self.input_size} is not divisible by 2^levels "
                              f"({2 ** self.levels})")
@@ -400,19 +394,11 @@ class SVBRDFNet(nn.Module):
                        ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
         """The JointReading head's corrected log relative specular albedo (B, 3), log
         roughness (B, 1) and reflection share logit (B, 1; None beside a map albedo
-        network) of ``image`` (B, 3, S, S); with
-        ``view_averaging``, each the mean of the readings of the photo's 8 dihedral views
-        (dihedral_views): a homogeneous material's parameters do not change when its photo
-        is turned or mirrored, and training saw every probe at every rotation."""
-        views = dihedral_views(image) if self.config.view_averaging else image
-        homogeneous = self.homogeneous(views)
-        logit = self.albedo.affine(views) if self.joint.reads_share else None
-        readings = self.joint(homogeneous[:, :3], homogeneous[:, 3:], logit,
-                              photo_statistics(views))
-        if not self.config.view_averaging:
-            return readings
-        return tuple(None if r is None else r.unflatten(0, (8, len(image))).mean(0)
-                     for r in readings)
+        network) of ``image`` (B, 3, S, S)."""
+        homogeneous = self.homogeneous(image)
+        logit = self.albedo.affine(image) if self.joint.reads_share else None
+        return self.joint(homogeneous[:, :3], homogeneous[:, 3:], logit,
+                          photo_statistics(image))
 
     def photo_affine_albedo(self, image: torch.Tensor, reference: torch.Tensor) -> torch.Tensor:
         """The photo-affine albedo (B, 3, H, W) of ``image`` (any size) with the reflection
@@ -444,14 +430,6 @@ class SVBRDFNet(nn.Module):
         if not self.config.joint_reading:
             return self.albedo.affine(reference)
         return self.joint_readings(reference)[2]
-
-
-def dihedral_views(image: torch.Tensor) -> torch.Tensor:
-    """(8 B, C, S, S): the 8 dihedral views of (B, C, S, S) images, view-major: the 4 quarter
-    turns (counter-clockwise, 0 to 270 degrees) of the images, then of their mirror images
-    (left-right)."""
-    return torch.cat([torch.rot90(x, turns, (2, 3)) for x in (image, image.flip(3))
-                      for turns in range(4)])
 
 
 def check_images(image: torch.Tensor, channels: int, size: int) -> None:

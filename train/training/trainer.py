@@ -247,7 +247,7 @@ class Run:
         if start.config.albedo_correction:
             log.info("%s: its albedo correction is not carried over (fit one again after "
                      "training: scripts/fit_albedo_correction.py)", model)
-        ignored = changed + ["joint_reading", "albedo_correction", "view_averaging"]
+        ignored = changed + ["joint_reading", "albedo_correction"]
         if start.config != dataclasses.replace(config, **{name: getattr(start.config, name)
                                                           for name in ignored}):
             raise InputError(model, f"its network {start.config} differs from this run's "
