@@ -1,7 +1,6 @@
 """Benchmark of full-resolution maps (train.estimation.full_resolution) with the shipped general
-model:
-seconds per photo for a 1024x1024 and a 2048x1536 photo (the bundled photo resized, so the
-network sees texture), and the process's peak resident memory. Prints JSON.
+model: seconds per photo for a 1024x1024 and a 2048x1536 photo (the bundled photo resized, so
+the network sees texture), and the process's peak resident memory. Prints JSON.
 
     python benchmarks/full_resolution_speed.py [--device cpu|cuda] [--repeats 2]
 """
