@@ -21,12 +21,10 @@ import torch
 from torch import nn
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from real_validation import (FOLDS, SHARED, SHIPPED_TRAINING_SETS,  # noqa: E402
-                             VALIDATION_PROBES, linked_folder, summarize)
+from real_validation import evaluate_choice, report_beside_shipped  # noqa: E402
 
 from train.estimation.network_choice import network_choice  # noqa: E402
-from train.evaluation.estimate_evaluation import (NAIVE_ROUGHNESS,  # noqa: E402
-                                                  NAIVE_SPECULAR, EvaluationConfig, run)
+from train.evaluation.estimate_evaluation import NAIVE_ROUGHNESS, NAIVE_SPECULAR  # noqa: E402
 
 
 class BlendedLobe(nn.Module):
@@ -64,25 +62,14 @@ class Blended:
 @click.option("--relights", default=3, show_default=True)
 def main(out, classes, weights, samples, relights):
     out = Path(out)
-    probes = linked_folder(out / "probes-validation",
-                           [f"{n}.exr" for n in VALIDATION_PROBES], SHARED / "probes")
     names = []
     for material_class in classes.split(","):
         for weight in (float(w) for w in weights.split(",")):
-            name = f"{material_class}+lobe{weight:g}"
-            names.append(name)
-            for fold, sets in FOLDS.items():
-                kept = [s for s in sets if s not in SHIPPED_TRAINING_SETS]
-                folder = linked_folder(out / "sets" / fold, kept, SHARED / "svbrdfs")
-                if (out / fold / name / "results.json").is_file():
-                    continue
-                run(EvaluationConfig(out=str(out / fold / name), probes=str(probes),
-                                     materials=str(folder), samples=samples, relights=relights),
-                    Blended(network_choice(None, material_class), weight))
-    plain = [c for c in ("general", "wood", "plastic", "metal", "auto")
-             if (out / "fold1" / c / "results.json").is_file()]
-    summarize(out, list(FOLDS), plain + names)
-    click.echo((out / "table.md").read_text())
+            names.append(f"{material_class}+lobe{weight:g}")
+            evaluate_choice(out, "validation", names[-1],
+                            lambda fold, c=material_class, w=weight: Blended(
+                                network_choice(None, c), w), samples, relights)
+    report_beside_shipped(out, names)
 
 
 if __name__ == "__main__":

@@ -18,11 +18,10 @@ from pathlib import Path
 import click
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from real_validation import (FOLDS, SHARED, SHIPPED_TRAINING_SETS, TEST_PROBES,  # noqa: E402
-                             VALIDATION_PROBES, linked_folder, summarize)
+from real_validation import (FOLDS, SHARED, TEST_PROBES, VALIDATION_PROBES,  # noqa: E402
+                             evaluate_choice, linked_folder, report_beside_shipped)
 
 from train.estimation.network_choice import FixedNetwork  # noqa: E402
-from train.evaluation.estimate_evaluation import EvaluationConfig, run  # noqa: E402
 from train.fits.joint_reading import FitConfig, fit  # noqa: E402
 from train.fits.part_fitting import fit_part_onto_model  # noqa: E402
 from train.networks.model_files import load_network, shipped_model_path  # noqa: E402
@@ -42,16 +41,13 @@ def main(out, photos, relights, steps, samples):
     training_probes = linked_folder(
         out / "probes-training", sorted(p.name for p in (SHARED / "probes").glob("*.exr")
                                         if p.stem not in held_out), SHARED / "probes")
-    probes = linked_folder(out / "probes-validation",
-                           [f"{n}.exr" for n in VALIDATION_PROBES], SHARED / "probes")
-    for fold, sets in FOLDS.items():
-        target = out / fold / NAME
-        if (target / "results.json").is_file():
-            continue
-        others = [s for other, names in FOLDS.items() if other != fold for s in names]
-        maps = linked_folder(out / "fits" / fold / "maps", others, SHARED / "svbrdfs")
+
+    def refit(fold):
+        """The plastic file with a head fit on the other folds' sets (fit once, kept)."""
         model = out / "fits" / fold / "svbrdf-plastic.safetensors"
         if not model.is_file():
+            others = [s for other, names in FOLDS.items() if other != fold for s in names]
+            maps = linked_folder(out / "fits" / fold / "maps", others, SHARED / "svbrdfs")
             cfg = FitConfig(work=str(out / "fits" / fold / "work"), maps=str(maps),
                             photos=photos, relights=relights, mix_specular=False, steps=steps)
             report = fit_part_onto_model(
@@ -59,14 +55,10 @@ def main(out, photos, relights, steps, samples):
                 lambda net, bank: fit(cfg, net, bank),
                 f"experiments/joint_reading_on_real_sets.py ({fold} left out)")
             click.echo(f"{fold}: {report}")
-        kept = [s for s in sets if s not in SHIPPED_TRAINING_SETS]
-        folder = linked_folder(out / "sets" / fold, kept, SHARED / "svbrdfs")
-        run(EvaluationConfig(out=str(target), probes=str(probes), materials=str(folder),
-                             samples=samples), FixedNetwork(load_network(model)))
-    plain = [c for c in ("general", "wood", "plastic", "metal", "auto")
-             if (out / "fold1" / c / "results.json").is_file()]
-    summarize(out, list(FOLDS), plain + [NAME])
-    click.echo((out / "table.md").read_text())
+        return FixedNetwork(load_network(model))
+
+    evaluate_choice(out, "validation", NAME, refit, samples)
+    report_beside_shipped(out, [NAME])
 
 
 if __name__ == "__main__":

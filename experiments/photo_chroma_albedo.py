@@ -19,11 +19,9 @@ import torch
 from torch import nn
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from real_validation import (FOLDS, SHARED, SHIPPED_TRAINING_SETS,  # noqa: E402
-                             VALIDATION_PROBES, linked_folder, summarize)
+from real_validation import evaluate_choice, report_beside_shipped  # noqa: E402
 
 from train.estimation.network_choice import network_choice  # noqa: E402
-from train.evaluation.estimate_evaluation import EvaluationConfig, run  # noqa: E402
 
 EPSILON = 1e-4
 
@@ -62,24 +60,13 @@ class Recoloured:
 @click.option("--relights", default=3, show_default=True)
 def main(out, classes, samples, relights):
     out = Path(out)
-    probes = linked_folder(out / "probes-validation",
-                           [f"{n}.exr" for n in VALIDATION_PROBES], SHARED / "probes")
     names = []
     for material_class in classes.split(","):
-        name = f"{material_class}+photo-chroma"
-        names.append(name)
-        for fold, sets in FOLDS.items():
-            kept = [s for s in sets if s not in SHIPPED_TRAINING_SETS]
-            folder = linked_folder(out / "sets" / fold, kept, SHARED / "svbrdfs")
-            if (out / fold / name / "results.json").is_file():
-                continue
-            run(EvaluationConfig(out=str(out / fold / name), probes=str(probes),
-                                 materials=str(folder), samples=samples, relights=relights),
-                Recoloured(network_choice(None, material_class)))
-    plain = [c for c in ("general", "wood", "plastic", "metal", "auto")
-             if (out / "fold1" / c / "results.json").is_file()]
-    summarize(out, list(FOLDS), plain + names)
-    click.echo((out / "table.md").read_text())
+        names.append(f"{material_class}+photo-chroma")
+        evaluate_choice(out, "validation", names[-1],
+                        lambda fold, c=material_class: Recoloured(network_choice(None, c)),
+                        samples, relights)
+    report_beside_shipped(out, names)
 
 
 if __name__ == "__main__":

@@ -152,6 +152,39 @@ def summarize(out, folds, choices):
     return table
 
 
+def evaluate_choice(out: Path, split: str, name: str, make_choice, samples: int = 60,
+                    relights: int = 3, excluded=SHIPPED_TRAINING_SETS,
+                    shared: Path = SHARED) -> None:
+    """sa-evaluate the network choice ``make_choice(fold)`` gives (train.estimation.
+    network_choice) on every fold of ``split`` whose ``out/<fold>/<name>/results.json`` is
+    missing: photos of the fold's sets less ``excluded``, under the split's probes (the same
+    photos for every choice). Experiments (experiments/) measure their variants with it."""
+    folds = FOLDS if split == "validation" else {"test": TEST_SETS}
+    probes = linked_folder(out / f"probes-{split}",
+                           [f"{probe}.exr" for probe in (VALIDATION_PROBES if split == "validation"
+                                                         else TEST_PROBES)], shared / "probes")
+    for fold, names in folds.items():
+        kept = [set_name for set_name in names if set_name not in excluded]
+        target = out / fold / name
+        if not kept or (target / "results.json").is_file():
+            continue
+        sets = linked_folder(out / "sets" / fold, kept, shared / "svbrdfs")
+        cfg = EvaluationConfig(out=str(target), probes=str(probes), materials=str(sets),
+                               samples=samples, relights=relights)
+        report = run(cfg, make_choice(fold))
+        print(json.dumps({"fold": fold, "choice": name,
+                          "relit_ratio": report["mean"]["ratio"]["relit_rmse"]}), flush=True)
+
+
+def report_beside_shipped(out: Path, names: list[str]) -> None:
+    """Summarize the validation in ``out`` for the shipped choices evaluated there and the
+    experiment's ``names``, and print the table."""
+    shipped = [c for c in ("general", "wood", "plastic", "metal", "auto")
+               if (out / "fold1" / c / "results.json").is_file()]
+    summarize(out, list(FOLDS), shipped + names)
+    print((out / "table.md").read_text())
+
+
 @click.command()
 @click.option("--out", required=True, type=click.Path(), help="Output folder (resumable).")
 @click.option("--split", type=click.Choice(("validation", "test")), default="validation",
@@ -168,24 +201,10 @@ def main(out, split, choices, samples, relights, exclude, shared):
     out, shared = Path(out), Path(shared)
     choices = [c for c in choices.split(",") if c]
     excluded = {name for name in exclude.split(",") if name}
+    for choice in choices:
+        evaluate_choice(out, split, choice, lambda fold, c=choice: network_choice(None, c),
+                        samples, relights, excluded, shared)
     folds = FOLDS if split == "validation" else {"test": TEST_SETS}
-    probes = linked_folder(out / f"probes-{split}",
-                           [f"{name}.exr" for name in (VALIDATION_PROBES if split == "validation"
-                                                       else TEST_PROBES)], shared / "probes")
-    for fold, names in folds.items():
-        kept = [name for name in names if name not in excluded]
-        if not kept:
-            continue
-        sets = linked_folder(out / "sets" / fold, kept, shared / "svbrdfs")
-        for choice in choices:
-            target = out / fold / choice
-            if (target / "results.json").is_file():
-                continue
-            cfg = EvaluationConfig(out=str(target), probes=str(probes), materials=str(sets),
-                                   samples=samples, relights=relights)
-            report = run(cfg, network_choice(None, choice))
-            click.echo(json.dumps({"fold": fold, "choice": choice,
-                                   "relit_ratio": report["mean"]["ratio"]["relit_rmse"]}))
     summarize(out, list(folds), choices)
     click.echo((out / "table.md").read_text())
 
