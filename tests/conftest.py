@@ -1,5 +1,6 @@
 """Shared fixtures: Mitsuba, small synthetic inputs written to temporary folders, shared data."""
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -49,3 +50,18 @@ def make_material(folder, albedo, **maps):
     for suffix, pixels in maps.items():
         write_png(folder / f"m_{suffix}.png", pixels)
     return folder
+
+
+BUNDLED_PHOTO = REPO / "scenes" / "photos" / "brick-reference-01.jpg"
+
+
+def estimate_bundled_photo(out, *options):
+    """Run ``sa-estimate`` on the bundled photo into ``out`` with ``options``; returns its
+    JSON report line and material.json as dicts."""
+    from click.testing import CliRunner
+
+    from train.cli.sa_estimate import main as sa_estimate
+    result = CliRunner().invoke(sa_estimate, [str(BUNDLED_PHOTO), *options, "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    return report, json.loads((Path(out) / BUNDLED_PHOTO.stem / "material.json").read_text())

@@ -16,7 +16,7 @@ from render.common.errors import InputError
 from render.common.exposure import expose
 from render.common.probes import find_probes, load_probe
 from render.torch_renderer.renderer import ProbeBank
-from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO
+from tests.conftest import BUNDLED_PHOTO, estimate_bundled_photo, BUNDLED_MATERIALS, BUNDLED_PROBES
 from train.cli.sa_estimate import main as sa_estimate
 from train.cli.sa_evaluate import main as sa_evaluate
 from train.data.map_samples import MapSampler
@@ -235,13 +235,9 @@ def test_shipped_models_load_and_fit_the_size_limit(name):
 
 
 def test_sa_estimate_with_a_class_uses_that_shipped_network(tmp_path):
-    photo = REPO / "scenes" / "photos" / "brick-reference-01.jpg"
-    result = CliRunner().invoke(sa_estimate, [str(photo), "--class", "general", "--out",
-                                              str(tmp_path / "est")])
-    assert result.exit_code == 0, result.output
-    report = json.loads(result.stdout.strip().splitlines()[-1])
+    photo = BUNDLED_PHOTO
+    report, material = estimate_bundled_photo(tmp_path / "est", "--class", "general")
     assert report["model"].endswith("svbrdf-general.safetensors")
-    material = json.loads((tmp_path / "est" / photo.stem / "material.json").read_text())
     assert 0.02 <= material["ward_roughness"] <= 1.0
     result = CliRunner().invoke(sa_estimate, [str(photo), "--class", "wood", "--out",
                                               str(tmp_path / "wood")])

@@ -1,5 +1,5 @@
-"""Full-resolution maps (train.estimation.full_resolution): tiles cover the photo, no seams where tiles
-meet, and agreement with the network's input-size estimate."""
+"""Full-resolution maps (train.estimation.full_resolution): tiles cover the photo, no seams where
+tiles meet, and agreement with the network's input-size estimate."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,5 @@
-"""The joint reading head (train.networks.svbrdf_net.JointReading) and its fit (train.fits.joint_reading)."""
+"""The joint reading head (train.networks.svbrdf_net.JointReading) and its fit
+(train.fits.joint_reading)."""
 
 import dataclasses
 import math
@@ -23,7 +24,6 @@ from train.networks.svbrdf_net import (
     JointReading,
     NetworkConfig,
     SVBRDFNet,
-    photo_affine_albedo,
     photo_statistics,
 )
 

@@ -7,15 +7,13 @@ import sys
 import numpy as np
 import pytest
 import torch
-from click.testing import CliRunner
 
 from render.common.errors import InputError
 from render.common.probes import find_probes, load_probe
 from render.materials.procedural.material_set import draw_metadata, regenerate
 from render.materials.reduced_svbrdf import write_material
 from render.torch_renderer.renderer import ProbeBank
-from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO
-from train.cli.sa_estimate import main as sa_estimate
+from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO, estimate_bundled_photo
 from train.data.map_samples import MapSampler
 from train.estimation.material_classifier import (
     FORMAT,
@@ -116,18 +114,12 @@ def test_the_router_gives_the_network_of_the_class_it_picks():
 
 
 def test_sa_estimate_with_class_auto_says_which_network_the_classifier_chose(tmp_path):
-    photo = REPO / "scenes" / "photos" / "brick-reference-01.jpg"
-    result = CliRunner().invoke(sa_estimate, [str(photo), "--class", "auto", "--out",
-                                              str(tmp_path / "est")])
-    assert result.exit_code == 0, result.output
-    report = json.loads(result.stdout.strip().splitlines()[-1])
+    report, material = estimate_bundled_photo(tmp_path / "est", "--class", "auto")
     assert report["class"] in ROUTES
     assert report["model"].endswith(f"svbrdf-{report['class']}.safetensors")
     assert sum(report["class_probabilities"].values()) == pytest.approx(1.0, abs=1e-3)
-    material = json.loads((tmp_path / "est" / photo.stem / "material.json").read_text())
     assert material["metadata"]["class"] == report["class"]
-    assert "class" not in json.loads(CliRunner().invoke(sa_estimate, [
-        str(photo), "--class", "wood", "--out", str(tmp_path / "wood")]).stdout.splitlines()[-1])
+    assert "class" not in estimate_bundled_photo(tmp_path / "wood", "--class", "wood")[0]
 
 
 def test_an_explicit_model_is_used_for_every_photo():
