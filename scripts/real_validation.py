@@ -152,6 +152,11 @@ def summarize(out, folds, choices):
     return table
 
 
+def split_folds(split: str) -> dict[str, tuple[str, ...]]:
+    """{fold: its sets} of ``split``: the validation folds, or the test as one fold."""
+    return FOLDS if split == "validation" else {"test": TEST_SETS}
+
+
 def evaluate_choice(out: Path, split: str, name: str, make_choice, samples: int = 60,
                     relights: int = 3, excluded=SHIPPED_TRAINING_SETS,
                     shared: Path = SHARED) -> None:
@@ -159,7 +164,7 @@ def evaluate_choice(out: Path, split: str, name: str, make_choice, samples: int 
     network_choice) on every fold of ``split`` whose ``out/<fold>/<name>/results.json`` is
     missing: photos of the fold's sets less ``excluded``, under the split's probes (the same
     photos for every choice). Experiments (experiments/) measure their variants with it."""
-    folds = FOLDS if split == "validation" else {"test": TEST_SETS}
+    folds = split_folds(split)
     probes = linked_folder(out / f"probes-{split}",
                            [f"{probe}.exr" for probe in (VALIDATION_PROBES if split == "validation"
                                                          else TEST_PROBES)], shared / "probes")
@@ -204,7 +209,7 @@ def main(out, split, choices, samples, relights, exclude, shared):
     for choice in choices:
         evaluate_choice(out, split, choice, lambda fold, c=choice: network_choice(None, c),
                         samples, relights, excluded, shared)
-    folds = FOLDS if split == "validation" else {"test": TEST_SETS}
+    folds = split_folds(split)
     summarize(out, list(folds), choices)
     click.echo((out / "table.md").read_text())
 

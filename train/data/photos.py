@@ -50,19 +50,11 @@ def read_linear_photo(path: str | Path) -> np.ndarray:
     """The whole photo as (H, W, 3) float32 linear RGB (steps 1 and 2 of the rule; not
     clamped)."""
     pixels = read_image(path)
-    height, width = pixels.shape[:2]
-    if min(height, width) < MIN_PHOTO_SIDE:
-        raise InputError(path, f"photo is {width}x{height} pixels; at least "
-                               f"{MIN_PHOTO_SIDE}x{MIN_PHOTO_SIDE} is needed")
-    if max(height, width) > MAX_PHOTO_ASPECT * min(height, width):
-        raise InputError(path, f"photo is {width}x{height} pixels, a side ratio of "
-                               f"{max(height, width) / min(height, width):.1f}:1; at most "
-                               f"{MAX_PHOTO_ASPECT:g}:1 is accepted (a panorama is not a photo "
-                               "of a flat sample)")
+    problem = photo_problem(pixels)
+    if problem:
+        raise InputError(path, problem)
     if pixels.shape[2] == 1:
         pixels = np.repeat(pixels, 3, axis=2)
-    if not np.isfinite(pixels).all():
-        raise InputError(path, "photo has NaN or infinite pixels")
     if is_hdr(path):
         try:
             pixels, _ = expose_numpy(np.maximum(pixels, 0.0))
@@ -71,6 +63,23 @@ def read_linear_photo(path: str | Path) -> np.ndarray:
     else:
         pixels = pixels ** PHOTO_GAMMA
     return pixels
+
+
+def photo_problem(pixels: np.ndarray) -> str | None:
+    """Why (H, W, C) pixels are not a photo to estimate, in one line (a side under
+    MIN_PHOTO_SIDE, a side ratio above MAX_PHOTO_ASPECT, NaN or infinite values), or None.
+    The rule of read_linear_photo and of arrays given to train.estimation.Estimator."""
+    height, width = pixels.shape[:2]
+    if min(height, width) < MIN_PHOTO_SIDE:
+        return (f"photo is {width}x{height} pixels; at least {MIN_PHOTO_SIDE}x{MIN_PHOTO_SIDE} "
+                "is needed")
+    if max(height, width) > MAX_PHOTO_ASPECT * min(height, width):
+        return (f"photo is {width}x{height} pixels, a side ratio of "
+                f"{max(height, width) / min(height, width):.1f}:1; at most "
+                f"{MAX_PHOTO_ASPECT:g}:1 is accepted (a panorama is not a photo of a flat sample)")
+    if not np.isfinite(pixels).all():
+        return "photo has NaN or infinite pixels"
+    return None
 
 
 def centre_square(pixels: np.ndarray) -> np.ndarray:

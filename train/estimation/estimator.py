@@ -33,7 +33,7 @@ import numpy as np
 import torch
 
 from render.materials.reduced_svbrdf import ReducedSVBRDF
-from train.data.photos import MAX_PHOTO_ASPECT, MIN_PHOTO_SIDE, network_view, read_linear_photo
+from train.data.photos import network_view, photo_problem, read_linear_photo
 from train.estimation.full_resolution import MAX_SIDE, full_resolution_maps
 from train.estimation.network_choice import DEFAULT_CLASS, network_choice
 from train.networks.svbrdf_net import SVBRDFNet
@@ -122,17 +122,13 @@ class Estimator:
 
 
 def check_linear_photo(pixels: np.ndarray) -> None:
-    """A ValueError naming what it got unless ``pixels`` is an (H, W, 3) float array of finite
-    values whose sides are at least MIN_PHOTO_SIDE and at most MAX_PHOTO_ASPECT apart."""
+    """A ValueError naming what it got unless ``pixels`` is an (H, W, 3) float array that
+    train.data.photos.photo_problem finds nothing wrong with."""
     if not isinstance(pixels, np.ndarray) or pixels.ndim != 3 or pixels.shape[2] != 3:
         raise ValueError("expected an (H, W, 3) numpy array of linear RGB, got "
                          f"{getattr(pixels, 'shape', type(pixels).__name__)}")
     if not np.issubdtype(pixels.dtype, np.floating):
         raise ValueError(f"expected floating-point linear RGB, got {pixels.dtype}")
-    height, width = pixels.shape[:2]
-    if min(height, width) < MIN_PHOTO_SIDE or max(height, width) > MAX_PHOTO_ASPECT * min(
-            height, width):
-        raise ValueError(f"photo is {width}x{height} pixels; sides of at least {MIN_PHOTO_SIDE} "
-                         f"px and at most {MAX_PHOTO_ASPECT:g}:1 apart are needed")
-    if not np.isfinite(pixels).all():
-        raise ValueError("photo has NaN or infinite pixels")
+    problem = photo_problem(pixels)
+    if problem:
+        raise ValueError(problem)
