@@ -11,16 +11,19 @@ every path a case makes bad is one of its attributes, and the test checks that t
 names it.
 """
 
+import functools
 import struct
+import tempfile
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import torch
+from PIL import Image
 
-from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO, make_material, make_probe, \
-    write_png
+from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PHOTO, BUNDLED_PROBES, REPO, make_material, \
+    make_probe, write_png
 
 DOC = REPO / "docs" / "reliability.md"
 
@@ -351,16 +354,46 @@ FAULT_COMMANDS = {
     "sa-validate": ("train.cli.sa_validate", lambda out: [
         "--probes", str(BUNDLED_PROBES), "--out", str(out), "--config", "toy", "--patterns",
         "2x2x2"]),
+    "sa-estimate": ("train.cli.sa_estimate", lambda out: [
+        *map(str, fault_photos()), "--out", str(out), "--max-side", "48"]),
+    "sa-evaluate": ("train.cli.sa_evaluate", lambda out: [
+        "--class", "plastic", "--materials", str(BUNDLED_MATERIALS), "--probes",
+        str(BUNDLED_PROBES), "--out", str(out), "--samples", "8", "--sample-size", "64",
+        "--relights", "1"]),
 }
 """The fault matrix's small runs: (module, argv builder (output folder))."""
+
+
+@functools.cache
+def fault_photos():
+    """Four photos for the sa-estimate batch of the fault matrix: 96 px crops of the bundled
+    brick photo, written once per process into a temporary folder."""
+    folder = Path(tempfile.mkdtemp(prefix="fault-photos-"))
+    with Image.open(BUNDLED_PHOTO) as photo:
+        photo = photo.convert("RGB")
+    paths = []
+    for k in range(4):
+        path = folder / f"photo-{k}.png"
+        photo.crop((100 * k, 100, 100 * k + 96, 196)).save(path)
+        paths.append(path)
+    return paths
 KILLS = 5
 """SIGKILLs per command, each at a seeded random moment, each followed by the same command."""
-FILE_SIZE_LIMITS = {"render-dataset": 20_000, "sa-train": 200_000, "sa-validate": 5_000}
+FILE_SIZE_LIMITS = {"render-dataset": 20_000, "sa-train": 200_000, "sa-validate": 5_000,
+                    "sa-estimate": 20_000, "sa-evaluate": 2_000}
 """Bytes a file may grow to in the full-disk cases (RLIMIT_FSIZE): less than some output."""
 FAULTS = [
     *[(command, f"kill -9 at {KILLS} seeded random moments, then the same command",
-       "the same files (dataset), weights and history (training) or results (validation) as "
-       "an uninterrupted run; no partial file under a final name") for command in FAULT_COMMANDS],
+       "the same files (dataset, estimates; times left out), weights and history (training) "
+       "or results (validation, evaluation) as an uninterrupted run; no partial file under a "
+       "final name") for command in FAULT_COMMANDS],
+    ("sa-estimate, sa-evaluate, render-dataset, sa-train, sa-validate",
+     "a second run on a folder a live run writes into",
+     "`Error: OUT: another run is writing into this folder (COMMAND, process PID) ...`; a "
+     "killed run's lock ends with it"),
+    ("sa-estimate", "the same folder with another model, class, probe or `--max-side`",
+     "`Error: OUT/config.json: ... (differing: OPTIONS) ...`, naming them; `--overwrite` "
+     "estimates every photo again"),
     *[(command, f"disk full (files limited to {limit:,} bytes)",
        "`Error: PATH: cannot write (... File too large)`, no partial file; the next run ends "
        "as an uninterrupted one") for command, limit in FILE_SIZE_LIMITS.items()],
@@ -383,12 +416,16 @@ def markdown():
         "",
         "## Resume",
         "",
-        "Every command that resumes (`render-dataset`, `sa-train`, `sa-validate`) continues an "
-        "output folder only with the options it was started with (`render/common/resume.py`), "
-        "except those that do not change the result: the output path (a moved folder "
-        "resumes), the device, worker counts, logging and checkpoint intervals. Any other "
-        "difference is refused, naming the differing options. `make-materials` skips the sets "
-        "already written and refuses a set made with other options.",
+        "Every command that resumes (`render-dataset`, `sa-train`, `sa-validate`, `sa-estimate`, "
+        "`sa-evaluate`) continues an output folder only with the options it was started with "
+        "(`render/common/resume.py`; model files and probes compared by their SHA-256), except "
+        "those that do not change the result: the output path (a moved folder resumes), the "
+        "device, worker counts, logging and checkpoint intervals, and `sa-estimate`'s list of "
+        "photos (a photo added to the batch is estimated, the finished ones skipped). Any other "
+        "difference is refused, naming the differing options. One run at a time writes into a "
+        "folder: a lock (`render/common/folder_lock.py`, `flock`) that the kernel releases when "
+        "its process ends, killed or not. `make-materials` skips the sets already written and "
+        "refuses a set made with other options.",
         "",
         "## Faults",
         "",

@@ -1,7 +1,9 @@
-"""The fault matrix (tests/reliability_cases.py): ``render-dataset``, ``sa-train`` and
-``sa-validate`` killed with SIGKILL at seeded random moments, then run again with the same
-command, end exactly as an uninterrupted run: identical dataset files, bit-identical weights and history, identical validation results;
-and no file under its final name is ever partial. Also: a disk that fills up (a file-size
+"""The fault matrix (tests/reliability_cases.py): ``render-dataset``, ``sa-train``,
+``sa-validate``, ``sa-estimate`` and ``sa-evaluate`` killed with SIGKILL at seeded random
+moments, then run again with the same command, end exactly as an uninterrupted run: identical
+dataset files, bit-identical weights and history, identical validation results, identical
+estimate files (times left out), identical evaluation results; and no file under its final
+name is ever partial. Also: a disk that fills up (a file-size
 limit) and a truncated checkpoint give one-line errors naming the path, and the next good run
 completes. Marked slow: CI runs them after the quick suite (``make test-slow``).
 
@@ -10,6 +12,7 @@ read-only folders, so the case cannot be produced here.
 """
 
 import json
+import re
 import resource
 import subprocess
 import sys
@@ -20,13 +23,15 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from render.common.images import read_image
+
 from tests.conftest import REPO
 from tests.reliability_cases import FAULT_COMMANDS as COMMANDS
 from tests.reliability_cases import FILE_SIZE_LIMITS, KILLS
 from train.networks.checkpoints import checkpoint_files, load_checkpoint
 
 pytestmark = pytest.mark.slow
-UNCOMPARED = {"ms_per_step", "seconds", "out"}
+UNCOMPARED = {"ms_per_step", "seconds", "out", "network_ms", "full_resolution_ms"}
 """Fields that measure time or name the output folder, not results: left out of comparisons."""
 
 
@@ -37,10 +42,12 @@ def run(command, out, **options):
 
 
 def files(folder):
-    """Files under ``folder`` by relative path, temporaries (``.name.tmpPID``) and the
-    append-only TensorBoard logs left out."""
+    """Files under ``folder`` by relative path; hidden ones (temporaries ``.name.tmpPID``, a
+    photo folder being written ``.stem.partial/``, the ``.lock``) and the append-only
+    TensorBoard logs left out."""
     return {str(p.relative_to(folder)): p for p in sorted(Path(folder).rglob("*"))
-            if p.is_file() and not (p.name.startswith(".") and ".tmp" in p.name)
+            if p.is_file() and not any(part.startswith(".")
+                                       for part in p.relative_to(folder).parts)
             and "tensorboard" not in p.parts}
 
 
@@ -54,9 +61,16 @@ def assert_complete(path):
                 data[name]
     elif path.suffix == ".pt":
         load_checkpoint(path)
-    elif path.suffix == ".png":
+    elif path.suffix in (".png", ".jpg"):
         with Image.open(path) as image:
             image.load()
+    elif path.suffix == ".exr":
+        read_image(path)
+    elif path.suffix == ".glb":  # the binary glTF header's length is the file's
+        data = path.read_bytes()
+        assert data[:4] == b"glTF" and int.from_bytes(data[8:12], "little") == len(data), path
+    elif path.suffix in (".xml", ".html"):
+        assert path.read_text().rstrip().endswith(("</scene>", "</html>")), path
     else:
         assert path.suffix in (".csv", ".md"), path
 
@@ -81,6 +95,10 @@ def result_of(command, out):
         return {"checkpoints": [p.name for p in checkpoint_files(out / "checkpoints")],
                 "weights": weights, "history": comparable(newest["history"]),
                 "history.json": comparable(json.loads(found["history.json"].read_text()))}
+    if command == "sa-estimate":  # every file; the times in the report and page left out
+        return {name: comparable(json.loads(path.read_text())) if path.suffix == ".json"
+                else re.sub(r"[0-9.]+ ms", "ms", path.read_text()) if path.suffix == ".html"
+                else path.read_bytes() for name, path in found.items()}
     return {name: comparable(json.loads(path.read_text())) for name, path in found.items()
             if name.endswith(".json")}
 

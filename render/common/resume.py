@@ -6,15 +6,18 @@ that changes the result is the same; options that do not change it (the output p
 device, worker counts, logging and checkpoint intervals: each command lists its own) may
 differ, so a folder moved elsewhere, or a run started on a CPU and continued on a GPU, resumes.
 Nested options (a network's configuration) are compared field by field, named with dots
-(``optimizer.learning_rate``).
+(``optimizer.learning_rate``). The run that records its options also takes the folder's lock
+(render.common.folder_lock) for the rest of its process: one run at a time per folder.
 """
 
+import hashlib
 import json
 from collections.abc import Collection
 from pathlib import Path
 
 from render.common.atomic_files import write_json
 from render.common.errors import InputError, require_output_folder
+from render.common.folder_lock import lock_folder
 
 
 def _flatten(options, prefix=""):
@@ -37,13 +40,26 @@ def differing_options(previous: dict, current: dict,
                   if name.split(".")[0] not in may_change and old.get(name) != new.get(name))
 
 
-def continue_folder(out: str | Path, options: dict, may_change: Collection[str],
+def file_digest(path: str | Path) -> str:
+    """SHA-256 of a file's bytes, hex: how a resumed run tells an input file (a model, a probe,
+    a photo) from another of the same name."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as file:
+        for block in iter(lambda: file.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def continue_folder(out: str | Path, options: dict, may_change: Collection[str], command: str,
                     write: bool = True) -> bool:
     """Check that folder ``out`` is new or holds the output of the same options (except
-    ``may_change``), then record ``options`` in ``out/config.json`` (if ``write``). Returns True
-    when the folder held earlier output to continue. Raises InputError naming the differing
-    options, or an unreadable config.json."""
+    ``may_change``), then (if ``write``) take its lock for ``command`` and record ``options``
+    in ``out/config.json``. Returns True when the folder held earlier output to continue.
+    Raises InputError naming the differing options, an unreadable config.json, or the live
+    run that holds the folder."""
     path = require_output_folder(out) / "config.json"
+    if write:
+        lock_folder(out, command)
     existed = path.is_file()
     if existed:
         try:

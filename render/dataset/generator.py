@@ -65,7 +65,7 @@ def run(cfg: DatasetConfig) -> dict:
     cfg.validate()
     out = Path(cfg.out)
     materials, probes = validate_inputs(cfg)
-    continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE)
+    continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE, "render-dataset")
     for stale in [*out.glob("samples/.*.tmp*"), *out.glob("tasks/.*.tmp*")]:
         stale.unlink()  # temporary files of a killed run; their task is redone below
 

@@ -305,7 +305,7 @@ def run(cfg: ValidationConfig,
     out = Path(cfg.out)
     for path in find_probes(cfg.probes):  # bad probes fail before the folder is claimed
         load_probe(path)
-    continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE)
+    continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE, "sa-validate")
     renderer = make_renderer(cfg)
     results = {}
     for pattern in ("dense",) + tuple(patterns):

@@ -24,7 +24,12 @@ from train.networks.model_files import SHIPPED
               help="Shipped network to use when no --model is given (the default relit real "
                    "materials best on the real-set validation, models/README.md); auto: the "
                    "one the material classifier picks per photo.")
-@click.option("--out", required=True, type=click.Path(), help="Output folder.")
+@click.option("--out", required=True, type=click.Path(),
+              help="Output folder. Run again with the same options, a cut-off batch "
+                   "continues: finished photos are skipped.")
+@click.option("--overwrite", is_flag=True,
+              help="Estimate every photo again, replacing its folder, even if the folder was "
+                   "made with other options.")
 @click.option("--probe", "probes", type=click.Path(), multiple=True,
               help="HDR probe to relight the estimate under (repeat for several; the first "
                    "also lights the preview and the Mitsuba scene). Default: the three "
@@ -33,10 +38,10 @@ from train.networks.model_files import SHIPPED
               help="Longest side of the albedo and normal maps (px).")
 @click.option("--device", default="cpu", show_default=True, help="torch device (cpu, cuda).")
 def main(photos: tuple[str, ...], model: str | None, material_class: str, out: str,
-         probes: tuple[str, ...], max_side: int, device: str) -> None:
+         overwrite: bool, probes: tuple[str, ...], max_side: int, device: str) -> None:
     """Estimate the reduced SVBRDF of each PHOTO."""
     try:
-        cfg = EstimateConfig(photos, out, tuple(probes) or DEFAULT_PROBES)
+        cfg = EstimateConfig(photos, out, tuple(probes) or DEFAULT_PROBES, overwrite)
         reports = run(cfg, Estimator(model, material_class, device, max_side))
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None

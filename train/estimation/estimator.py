@@ -91,6 +91,8 @@ class Estimator:
         if max_side < 16:
             raise ValueError(f"max_side {max_side} is below 16 px")
         self.choice = network_choice(model, material_class, device)
+        self.material_class = None if model is not None else material_class
+        """The shipped class asked for, or None where a model file was given."""
         self.max_side = max_side
 
     @property

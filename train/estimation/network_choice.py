@@ -12,7 +12,8 @@ what users get:
 A choice has ``input_size`` (the photo side its networks take; all the shipped networks share
 it) and ``for_photo(photo)``, which returns the network for a (3, S, S) photo and a dict saying
 which one and why (``model``: its file; with the router also ``class`` and
-``class_probabilities``).
+``class_probabilities``), and ``model_files``, the files its estimates depend on (what a
+resumed batch compares, train.estimation.batch).
 """
 
 from pathlib import Path
@@ -59,6 +60,10 @@ class FixedNetwork:
         self.net = net
         self.input_size = net.config.input_size
 
+    @property
+    def model_files(self) -> list[Path]:
+        return [Path(self.net.source)]
+
     def for_photo(self, photo: np.ndarray) -> tuple[SVBRDFNet, dict]:
         return self.net, {"model": self.net.source}
 
@@ -79,6 +84,10 @@ class ClassRouter:
                 raise InputError(net.source, "shipped networks differ in input size")
             self.networks[route] = net
         return self.networks[route]
+
+    @property
+    def model_files(self) -> list[Path]:
+        return [Path(self.classifier.source)] + [shipped_model_path(r) for r in ROUTES]
 
     def for_photo(self, photo: np.ndarray) -> tuple[SVBRDFNet, dict]:
         image = torch.as_tensor(photo)[None].to(self.device)

@@ -34,6 +34,7 @@ the specular albedo, the roughness, or specular albedo and roughness together). 
 swap lowers the relit error much is the part to get right.
 """
 
+import dataclasses
 import json
 import math
 import tempfile
@@ -53,6 +54,7 @@ from render.common.color import linear_to_srgb
 from render.common.errors import InputError, require_output_folder
 from render.common.exposure import expose
 from render.common.probes import find_probes, load_probe
+from render.common.resume import continue_folder, file_digest
 from render.torch_renderer.renderer import ProbeBank, render, sphere_normals, ward_kernel
 from train.data.labeled_dataset import LabeledDataset
 from train.data.map_samples import MapSampler
@@ -71,6 +73,8 @@ SWAPS = {"albedo": ("albedo",), "normals": ("normal",), "specular": ("log_specul
          "specular+roughness": ("log_specular", "log_roughness")}
 """Parts of an estimate replaced by the truth for ``relit_with_true``: name -> parameters."""
 FIGURE_ROWS = 6
+MAY_CHANGE = ("out", "device")
+"""Options a resumed evaluation may change (render.common.resume)."""
 SWATCH_LIGHT = np.array([1.0, 1.0, 2.0]) / math.sqrt(6.0)
 """Direction of the directional light of the specular swatches (toward the light)."""
 
@@ -141,7 +145,8 @@ def as_photo_file(image: np.ndarray, folder: str | Path, name: str) -> Path:
     encoding train.data.photos.read_photo undoes; returns the path."""
     path = Path(folder) / f"{name}.png"
     encoded = np.clip(image.transpose(1, 2, 0), 0.0, 1.0) ** (1.0 / PHOTO_GAMMA)
-    Image.fromarray(np.round(encoded * 255.0).astype(np.uint8)).save(path)
+    with atomic_path(path) as tmp:  # a failed write is one line naming the file
+        Image.fromarray(np.round(encoded * 255.0).astype(np.uint8)).save(tmp, "PNG")
     return path
 
 
@@ -224,12 +229,19 @@ def held_out_probes(cfg: EvaluationConfig) -> set[str]:
 def run(cfg: EvaluationConfig, choice: FixedNetwork | ClassRouter) -> dict:
     """Evaluate the estimates of the networks ``choice`` gives
     (train.estimation.network_choice) on the data of ``cfg``; write results.json and
-    figure.png into ``cfg.out``; return the report dict."""
-    require_output_folder(cfg.out)
+    figure.png into ``cfg.out``; return the report dict. Each sample's errors are kept in
+    ``cfg.out/samples/<index>.json`` as they are measured, so a run that is cut off continues
+    with the same options and model files (render.common.resume); the samples the figure shows
+    are estimated again."""
+    out = require_output_folder(cfg.out)
     probe_files = find_probes(cfg.probes)
     probe_names = [path.stem for path in probe_files]
     bank = ProbeBank([load_probe(path).radiance for path in probe_files], device=cfg.device)
+    options = dataclasses.asdict(cfg) | {
+        "models": {Path(path).name: file_digest(path) for path in choice.model_files},
+        "probe_files": {path.name: file_digest(path) for path in probe_files}}
     samples = test_samples(cfg, bank, probe_names)
+    continue_folder(out, options, MAY_CHANGE, "sa-evaluate")
     held_out = held_out_probes(cfg)
     size = choice.input_size
     records, figure_rows = [], []
@@ -237,6 +249,10 @@ def run(cfg: EvaluationConfig, choice: FixedNetwork | ClassRouter) -> dict:
     with tempfile.TemporaryDirectory() as photos:
         for i, (image, truth, own_probe, name) in enumerate(tqdm(samples, desc="sa-evaluate",
                                                                  unit="sample")):
+            record_file = out / "samples" / f"{i:05d}.json"
+            if record_file.is_file() and i not in shown:
+                records.append(read_record(record_file))
+                continue
             photo = read_photo(as_photo_file(image, photos, f"{i:05d}"), size)
             truth = maps_at_size({name: value.to(cfg.device) for name, value in truth.items()},
                                  size)
@@ -262,7 +278,9 @@ def run(cfg: EvaluationConfig, choice: FixedNetwork | ClassRouter) -> dict:
                 if kind == "model" and i in shown:
                     figure_rows.append(figure_row(photo, parameters, truth, relit[0],
                                                   relit_truth[0]))
-            records.append(record)
+            with atomic_path(record_file) as tmp:
+                tmp.write_text(json.dumps(record))
+            records.append(read_record(record_file))  # as a resumed run reads it
     models = sorted({record["network"] for record in records})
     report = {"model": models[0] if len(models) == 1 else models,
               "data": list(cfg.datasets) or cfg.materials,
@@ -271,12 +289,19 @@ def run(cfg: EvaluationConfig, choice: FixedNetwork | ClassRouter) -> dict:
     if any("class" in record for record in records):
         report["classes_chosen"] = {route: sum(record.get("class") == route for record in records)
                                     for route in ROUTES}
-    out = Path(cfg.out)
-    out.mkdir(parents=True, exist_ok=True)
     with atomic_path(out / "results.json") as tmp:
         tmp.write_text(json.dumps(report, indent=1))
     write_figure(out / "figure.png", figure_rows)
     return report
+
+
+def read_record(path: Path) -> dict:
+    """A sample's errors as run wrote them."""
+    try:
+        return json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise InputError(path, f"cannot read a sample's errors ({error}); remove it to measure "
+                               f"the sample again") from None
 
 
 def summary(records: list[dict]) -> dict:

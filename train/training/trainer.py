@@ -433,7 +433,8 @@ def run(cfg: TrainConfig) -> dict[str, list[dict[str, float]]]:
 def _train(cfg, place):
     out = Path(cfg.out)
     run_state = Run(cfg, place)  # checks the inputs before anything is written
-    continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE, write=place.is_main)
+    continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE, "sa-train",
+                    write=place.is_main)
     newest = checkpoint_files(out / "checkpoints")
     if newest:
         run_state.resume(newest[-1])
