@@ -47,6 +47,7 @@ from render.common.resume import continue_folder
 from render.torch_renderer.renderer import ProbeBank, render, rotate_z, sphere_normals
 from train.brdf_validation import search_space
 from train.networks.svbrdf_net import HomogeneousNet, NetworkConfig
+from train.training.self_augmentation import provisional_parameters
 from train.training.optimization import OptimizerConfig, make_optimizer
 
 log = logging.getLogger(__name__)
@@ -212,11 +213,9 @@ def train_run(cfg: ValidationConfig, renderer: SphereRenderer, labeled_mask: np.
             chosen = labeled[rng.integers(len(labeled), size=cfg.batch_size)]
         else:
             index = rng.integers(len(unlabeled), size=cfg.batch_size)
-            net.eval()
             with torch.no_grad():
                 photos = renderer(unlabeled[index], unlabeled_lightings[index])
-                chosen = from_targets(net(photos).cpu().numpy())
-            net.train()
+            chosen = from_targets(provisional_parameters(net, photos).cpu().numpy())
         images = renderer(chosen, rng.integers(cfg.lightings, size=cfg.batch_size))
         target = torch.as_tensor(search_space.targets(chosen), dtype=torch.float32,
                                  device=cfg.device)

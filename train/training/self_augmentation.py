@@ -12,6 +12,7 @@ inverse.
 """
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import torch
@@ -36,12 +37,15 @@ def random_lightings(rng: np.random.Generator, count: int,
     return probe_index, rotation_deg, view
 
 
-def provisional_parameters(net: SVBRDFNet, photos: torch.Tensor) -> dict[str, torch.Tensor]:
-    """The network's predictions for ``photos``, with batch norm normalizing by the minibatch's
-    own statistics, as in training; the running statistics are left as they were (the provisional
-    pass is not a training step). Predicting in evaluation mode instead, with running statistics
-    that the self-augmented renders themselves keep moving, biased the predictions and let the
-    specular albedo drift (docs/training.md)."""
+def provisional_parameters(net: torch.nn.Module, photos: torch.Tensor) -> Any:
+    """The network's predictions for ``photos`` (what ``net(photos)`` returns: SVBRDF-net's
+    parameter dict, BRDF-net's (B, 2) targets), without gradients, with batch norm normalizing
+    by the minibatch's own statistics, as in training; the running statistics are left as they
+    were (the provisional pass is not a training step). Predicting in evaluation mode instead,
+    with running statistics that the self-augmented renders themselves keep moving, biased the
+    predictions and let the specular albedo drift (docs/training.md). Both self-augmentations
+    take their provisional labels here: SVBRDF-net's (``self_augmented_batch``) and BRDF-net's
+    in the paper's validation (train.brdf_validation.validation)."""
     running = [buffer.clone() for buffer in net.buffers()]
     training = net.training
     net.train()
