@@ -85,7 +85,8 @@ def main(spp, size, pairs, sampler, shared, reference, variant, save, compare_to
     total = sum(c["seconds"] for c in cases)
     print(json.dumps({
         "benchmark": "render_throughput", "machine": platform.processor() or platform.machine(),
-        "variant": variant, "size": size, "spp": spp, "sampler": sampler, "images_per_second": len(cases) / total,
+        "variant": variant, "size": size, "spp": spp, "sampler": sampler,
+        "images_per_second": len(cases) / total,
         **({"min_psnr_db_vs_16x": min(c["psnr_db_vs_16x"] for c in cases),
             "mean_psnr_db_vs_16x": float(np.mean([c["psnr_db_vs_16x"] for c in cases]))}
            if reference else {}),

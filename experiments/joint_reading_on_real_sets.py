@@ -9,7 +9,13 @@ probes: every shared probe but the 8 held out), and the plastic file with it is 
 fold's validation photos (the same photos as the shipped files'), as the choice
 ``plastic+real-head``.
 
-    .venv/bin/python experiments/joint_reading_on_real_sets.py --out OUT [--photos 2400]
+``--mix-specular`` pairs each real set's maps with the specular pair of another set drawn at
+random (train.data.map_samples), so that 18 sets give 18 x 18 looks instead of 18, and
+``--procedural FOLDER`` adds the material folders of FOLDER (for instance a few make-materials
+plastics and metals) to every fold's sets: the choice ``plastic+real-head-mixed``.
+
+    .venv/bin/python experiments/joint_reading_on_real_sets.py --out OUT [--photos 2400] \
+        [--mix-specular] [--procedural FOLDER]
 """
 
 import sys
@@ -26,7 +32,6 @@ from train.fits.joint_reading import FitConfig, fit  # noqa: E402
 from train.fits.part_fitting import fit_part_onto_model  # noqa: E402
 from train.networks.model_files import load_network, shipped_model_path  # noqa: E402
 
-NAME = "plastic+real-head"
 
 
 @click.command()
@@ -35,8 +40,12 @@ NAME = "plastic+real-head"
 @click.option("--relights", default=2, show_default=True)
 @click.option("--steps", default=10000, show_default=True)
 @click.option("--samples", default=60, show_default=True)
-def main(out, photos, relights, steps, samples):
+@click.option("--mix-specular", is_flag=True, help="Photos of mixed specular pairs.")
+@click.option("--procedural", type=click.Path(exists=True, file_okay=False), default=None,
+              help="Folder of material folders added to every fold's sets.")
+def main(out, photos, relights, steps, samples, mix_specular, procedural):
     out = Path(out)
+    name = "plastic+real-head-mixed" if mix_specular or procedural else "plastic+real-head"
     held_out = set(VALIDATION_PROBES + TEST_PROBES)
     training_probes = linked_folder(
         out / "probes-training", sorted(p.name for p in (SHARED / "probes").glob("*.exr")
@@ -44,21 +53,26 @@ def main(out, photos, relights, steps, samples):
 
     def refit(fold):
         """The plastic file with a head fit on the other folds' sets (fit once, kept)."""
-        model = out / "fits" / fold / "svbrdf-plastic.safetensors"
+        folder = out / "fits" / name / fold
+        model = folder / "svbrdf-plastic.safetensors"
         if not model.is_file():
             others = [s for other, names in FOLDS.items() if other != fold for s in names]
-            maps = linked_folder(out / "fits" / fold / "maps", others, SHARED / "svbrdfs")
-            cfg = FitConfig(work=str(out / "fits" / fold / "work"), maps=str(maps),
-                            photos=photos, relights=relights, mix_specular=False, steps=steps)
+            maps = linked_folder(folder / "maps", others, SHARED / "svbrdfs")
+            if procedural:
+                linked_folder(maps, sorted(p.name for p in Path(procedural).iterdir()
+                                           if p.is_dir()), Path(procedural))
+            cfg = FitConfig(work=str(folder / "work"), maps=str(maps), photos=photos,
+                            relights=relights, mix_specular=mix_specular, steps=steps)
             report = fit_part_onto_model(
                 shipped_model_path("plastic"), model, "joint_reading", training_probes,
                 lambda net, bank: fit(cfg, net, bank),
-                f"experiments/joint_reading_on_real_sets.py ({fold} left out)")
+                f"experiments/joint_reading_on_real_sets.py ({fold} left out, "
+                f"mix_specular {mix_specular}, procedural {procedural is not None})")
             click.echo(f"{fold}: {report}")
         return FixedNetwork(load_network(model))
 
-    evaluate_choice(out, "validation", NAME, refit, samples)
-    report_beside_shipped(out, [NAME])
+    evaluate_choice(out, "validation", name, refit, samples)
+    report_beside_shipped(out, [name])
 
 
 if __name__ == "__main__":
