@@ -2,9 +2,7 @@
 of one, after warm-up) for the paper's, the compact (shipped models; with a U-Net or a
 photo-affine albedo network, its joint reading head and its albedo correction, then with view
 averaging too, as the plastic model has; the U-Net with a joint reading head, as the wood model
-has) and the small configuration, and for the material
-classifier's probabilities of a 256 px photo (its 8 views; alone and with a plastic-or-metal
-network, as the shipped file has). Prints JSON.
+has) and the small configuration. Prints JSON.
 
     python benchmarks/estimate_speed.py [--device cpu|cuda] [--repeats 10]
 """
@@ -18,7 +16,6 @@ import time
 import click
 import torch
 
-from train.estimation.material_classifier import MaterialClassifier
 from train.networks.svbrdf_net import COMPACT_CONFIG, SMALL_CPU_CONFIG, NetworkConfig, SVBRDFNet
 
 
@@ -56,15 +53,6 @@ def main(device, repeats):
         photo = torch.rand(1, 3, config.input_size, config.input_size, device=device)
         results[name] = {"input": config.input_size,
                          "ms_per_photo": milliseconds(net, photo, repeats, device)}
-    photo = torch.rand(1, 3, 256, 256, device=device)
-    for name, specialist in (("material classifier", False),
-                             ("material classifier with a plastic-or-metal network", True)):
-        classifier = MaterialClassifier()
-        if specialist:
-            classifier.attach_plastic_or_metal(MaterialClassifier())
-        classifier = classifier.to(device).eval()
-        results[name] = {"input": 256, "ms_per_photo": milliseconds(
-            classifier.probabilities, photo, repeats, device)}
     print(json.dumps({"device": device, "machine": f"{platform.machine()}, {os.cpu_count()} cores",
                       "torch_threads": torch.get_num_threads(), "networks": results}, indent=2))
 

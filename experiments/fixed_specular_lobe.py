@@ -48,6 +48,7 @@ class Blended:
 
     def __init__(self, choice, weight):
         self.choice, self.weight, self.input_size = choice, weight, choice.input_size
+        self.model_files = choice.model_files
 
     def for_photo(self, photo):
         net, chosen = self.choice.for_photo(photo)

@@ -8,7 +8,7 @@ network's albedo A (B, 3, S, S) is replaced by mean_c(A) * P / mean_c(P), P the 
 the network's colour). Measured with scripts/real_validation.py's folds, probes and photos, as
 the choice ``<class>+photo-chroma`` beside the plain networks.
 
-    .venv/bin/python experiments/photo_chroma_albedo.py --out OUT [--classes general,auto]
+    .venv/bin/python experiments/photo_chroma_albedo.py --out OUT [--classes plastic]
 """
 
 import sys
@@ -47,6 +47,7 @@ class Recoloured:
 
     def __init__(self, choice):
         self.choice, self.input_size = choice, choice.input_size
+        self.model_files = choice.model_files
 
     def for_photo(self, photo):
         net, chosen = self.choice.for_photo(photo)
@@ -55,7 +56,7 @@ class Recoloured:
 
 @click.command()
 @click.option("--out", required=True, type=click.Path())
-@click.option("--classes", default="general,auto", show_default=True)
+@click.option("--classes", default="plastic", show_default=True)
 @click.option("--samples", default=60, show_default=True)
 @click.option("--relights", default=3, show_default=True)
 def main(out, classes, samples, relights):

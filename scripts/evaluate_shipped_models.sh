@@ -19,8 +19,8 @@
 # two renders each, all of them evaluated ($WORK/eval/<class>-larger).
 #
 # CLASSES (default "wood plastic metal") names the class networks to test; the general
-# network and the classifier's pick are tested only when all three are named (their test
-# holds every class and godot_aluminium). Re-run with the same WORK: finished renders are kept.
+# network is tested only when all three are named (its test holds every class and
+# godot_aluminium). Re-run with the same WORK: finished renders are kept.
 #
 #   [CLASSES=plastic] [MORE_SETS=80] bash scripts/evaluate_shipped_models.sh SHARED_DATA WORK \
 #       [MODELS_DIR]
@@ -113,8 +113,3 @@ $ALL || exit 0
 "$BIN/sa-evaluate" --model "$MODELS/svbrdf-general.safetensors" \
     $(datasets wood plastic metal aluminium) --split all --probes "$WORK/probes" --samples 96 \
     --out "$WORK/eval/general" > "$WORK/eval/general.json"
-# sa-estimate's default: the class network the material classifier picks for each photo (the
-# classifier and the class networks of this installation's models/), on the general test
-"$BIN/sa-evaluate" --class auto \
-    $(datasets wood plastic metal aluminium) --split all --probes "$WORK/probes" --samples 96 \
-    --out "$WORK/eval/auto" > "$WORK/eval/auto.json"

@@ -8,10 +8,9 @@ fold it is validated on). The held-out probes are split the same way: VALIDATION
 and relight the validation photos, TEST_PROBES the test photos; no network is trained under
 either.
 
-For each fold and each network choice (``--choices``: the shipped networks by class, and
-``auto``, the material classifier's pick per photo) it runs sa-evaluate
-(train.evaluation.estimate_evaluation) on ``--samples`` photos rendered by the torch renderer
-from the fold's sets, under the fold's probes: the same photos for every choice, each with the
+For each fold and each network choice (``--choices``: the shipped networks by class) it runs
+sa-evaluate (train.evaluation.estimate_evaluation) on ``--samples`` photos rendered by the torch
+renderer from the fold's sets, under the fold's probes: the same photos for every choice, each with the
 naive baseline's errors beside the model's. Sets a model was trained on (``--exclude``) are
 left out of every fold. Writes into ``--out``:
 
@@ -23,7 +22,7 @@ left out of every fold. Writes into ``--out``:
     per_set.png                                the relit ratio of every set by every choice
 
     .venv/bin/python scripts/real_validation.py --out OUT [--split validation|test] \
-        [--choices general,wood,plastic,metal,auto] [--samples 60] [--exclude SET,...]
+        [--choices general,wood,plastic,metal] [--samples 60] [--exclude SET,...]
 """
 
 import json
@@ -58,7 +57,7 @@ TEST_PROBES = ("aristea_wreck_puresky", "dikhololo_night", "env-lab", "modern_bu
 SHIPPED_TRAINING_SETS = ("godot_cheese", "godot_marble", "godot_rock", "godot_sand",
                          "godot_texture_bricks", "godot_texture_rock", "godot_texture_wood",
                          "materialx_brick", "pbrone_bricks", "polyhaven_fabric_pattern_07")
-"""The real sets the shipped general network and classifier were trained on (models/README.md)."""
+"""The real sets the shipped general network was trained on (models/README.md)."""
 
 
 def linked_folder(folder, names, source):
@@ -105,8 +104,7 @@ def summarize(out, folds, choices):
             table["folds"].setdefault(fold, {})[choice] = {
                 "photos": results["samples"], "relit_ratio": overall[0] / overall[1],
                 "albedo_ratio": overall[2] / overall[3], "worst_set": worst,
-                "worst_relit_ratio": sets[worst][0] / sets[worst][1],
-                "classes_chosen": results.get("classes_chosen")}
+                "worst_relit_ratio": sets[worst][0] / sets[worst][1]}
             for name, row in sets.items():
                 table["sets"].setdefault(name, {})[choice] = row[0] / row[1]
     for choice, records in every.items():
@@ -184,7 +182,7 @@ def evaluate_choice(out: Path, split: str, name: str, make_choice, samples: int 
 def report_beside_shipped(out: Path, names: list[str]) -> None:
     """Summarize the validation in ``out`` for the shipped choices evaluated there and the
     experiment's ``names``, and print the table."""
-    shipped = [c for c in ("general", "wood", "plastic", "metal", "auto")
+    shipped = [c for c in ("general", "wood", "plastic", "metal")
                if (out / "fold1" / c / "results.json").is_file()]
     summarize(out, list(FOLDS), shipped + names)
     print((out / "table.md").read_text())
@@ -194,7 +192,7 @@ def report_beside_shipped(out: Path, names: list[str]) -> None:
 @click.option("--out", required=True, type=click.Path(), help="Output folder (resumable).")
 @click.option("--split", type=click.Choice(("validation", "test")), default="validation",
               show_default=True)
-@click.option("--choices", default="general,wood,plastic,metal,auto", show_default=True,
+@click.option("--choices", default="general,wood,plastic,metal", show_default=True,
               help="Network choices, as sa-evaluate's --class.")
 @click.option("--samples", default=60, show_default=True, help="Photos per fold.")
 @click.option("--relights", default=3, show_default=True)

@@ -69,7 +69,8 @@ def chroma(pixels):
 
 def test_the_default_estimate_keeps_neutral_patches_neutral():
     """The photo's own chroma of the patches is about 0.005; an albedo that turns them blue
-    (0.3, the classifier's pick in an earlier release) fails."""
+    (0.3, the general network's, which the material classifier of an earlier release picked for
+    this photo) fails."""
     from train.data.photos import read_linear_photo
     photo = read_linear_photo(PHOTO)
     albedo = Estimator().estimate(photo).albedo

@@ -9,7 +9,7 @@ from render.common.errors import InputError
 from train.estimation.batch import DEFAULT_PROBES, EstimateConfig, run
 from train.estimation.estimator import Estimator
 from train.estimation.full_resolution import MAX_SIDE
-from train.estimation.network_choice import AUTO, DEFAULT_CLASS
+from train.estimation.network_choice import DEFAULT_CLASS
 from train.networks.model_files import SHIPPED
 
 
@@ -18,12 +18,11 @@ from train.networks.model_files import SHIPPED
 @click.option("--model", type=click.Path(), default=None,
               help="A model file (.safetensors), an sa-train checkpoint (.pt) or a run folder "
                    "(its newest checkpoint). Default: the shipped network of --class.")
-@click.option("--class", "material_class", type=click.Choice((AUTO,) + SHIPPED),
+@click.option("--class", "material_class", type=click.Choice(SHIPPED),
               default=DEFAULT_CLASS,
               show_default=True,
               help="Shipped network to use when no --model is given (the default relit real "
-                   "materials best on the real-set validation, models/README.md); auto: the "
-                   "one the material classifier picks per photo.")
+                   "materials best on the real-set validation, models/README.md).")
 @click.option("--out", required=True, type=click.Path(),
               help="Output folder. Run again with the same options, a cut-off batch "
                    "continues: finished photos are skipped.")

@@ -6,7 +6,7 @@ from typing import Any
 import click
 
 from render.common.errors import InputError
-from train.estimation.network_choice import AUTO, DEFAULT_CLASS, network_choice
+from train.estimation.network_choice import DEFAULT_CLASS, network_choice
 from train.evaluation.estimate_evaluation import EvaluationConfig, run
 from train.networks.model_files import SHIPPED
 
@@ -14,10 +14,9 @@ from train.networks.model_files import SHIPPED
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.option("--model", type=click.Path(), default=None,
               help="Model file (.safetensors), sa-train checkpoint (.pt) or run folder.")
-@click.option("--class", "material_class", type=click.Choice((AUTO,) + SHIPPED),
+@click.option("--class", "material_class", type=click.Choice(SHIPPED),
               default=DEFAULT_CLASS,
-              show_default=True, help="Shipped network to evaluate when no --model is given; "
-                                      "auto: the one the material classifier picks per photo.")
+              show_default=True, help="Shipped network to evaluate when no --model is given.")
 @click.option("--dataset", "datasets", type=click.Path(), multiple=True,
               help="render-dataset folder whose --split is evaluated (repeatable).")
 @click.option("--materials", type=click.Path(), default=None,

@@ -1,15 +1,15 @@
 """``sa-estimate``: the reduced SVBRDF of a batch of photos, written into an output folder.
 
-Each photo is estimated by an Estimator (train.estimation.estimator: a shipped network chosen
-per photo by the material classifier, a shipped class network, or a given model file) and
+Each photo is estimated by an Estimator (train.estimation.estimator: a shipped class network
+or a given model file) and
 written as train.estimation.outputs says: a folder per photo and ``report.html``. The
 specular albedo and roughness come from the photo's centre square read at the network's input
 size, the estimate that sa-evaluate measures. ``run`` returns a report per photo (the command
-prints each as a JSON line): the network chosen and the milliseconds it took (at input size,
-the classifier's choice included; full resolution).
+prints each as a JSON line): the network and the milliseconds it took (at input size; full
+resolution).
 
 A batch resumes (the project's rule, render.common.resume). The folder's options
-(``OUT/config.json``: the model files' and probes' SHA-256, the class, ``max_side``) must be
+(``OUT/config.json``: the model file's and probes' SHA-256, the class, ``max_side``) must be
 those of the run that started it, or the run is refused naming the options that differ; the
 list of photos may change. A photo's folder is written as ``OUT/.<stem>.partial`` and renamed
 to ``OUT/<stem>`` when whole, with its report (``estimate.json``, which also holds the photo
@@ -91,7 +91,7 @@ def finished_report(folder: Path, photo: str | Path) -> dict | None:
 def run(cfg: EstimateConfig, estimator: Estimator) -> list[dict]:
     """Estimate the reduced SVBRDF of each photo of ``cfg`` with ``estimator`` and write the
     outputs, continuing a cut-off batch; returns a report per photo (its output folder, the
-    network and why, network milliseconds and parameters; a finished photo's as it was)."""
+    network, network milliseconds and parameters; a finished photo's as it was)."""
     out = require_output_folder(cfg.out)
     stems = [Path(path).stem for path in cfg.photos]
     if len(set(stems)) != len(stems):

@@ -7,9 +7,8 @@
     result.albedo, result.normal               # (H, W, 3) float32 maps over the whole photo
     result.specular_albedo, result.roughness   # the homogeneous Ward lobe
 
-An Estimator loads its networks once (train.estimation.network_choice: a given model file, a
-shipped class network, by default DEFAULT_CLASS's, or the one the material classifier picks
-for each photo) and estimates any number of photos. ``sa-estimate`` (train.estimation.batch) is
+An Estimator loads its network once (train.estimation.network_choice: a given model file or a
+shipped class network, by default DEFAULT_CLASS's) and estimates any number of photos. ``sa-estimate`` (train.estimation.batch) is
 built on it, so a script gets exactly what the command writes.
 
 The estimate of a photo, as sa-evaluate measures it:
@@ -64,10 +63,9 @@ class Estimate:
     roughness: float
     """Ward alpha (unitless), in [0.02, 1]."""
     network: dict
-    """Which network estimated the photo and why: ``model`` (its file) and, where the
-    material classifier chose it, ``class`` and ``class_probabilities``."""
+    """Which network estimated the photo: ``model`` (its file)."""
     network_ms: float
-    """Milliseconds of the network-size estimate, the network's choice included."""
+    """Milliseconds of the network-size estimate."""
     full_resolution_ms: float
     """Milliseconds of the full-resolution maps."""
 
@@ -85,7 +83,7 @@ class Estimator:
                  device: str = "cpu", max_side: int = MAX_SIDE):
         """``model``: a model file (.safetensors), an sa-train checkpoint (.pt) or a run folder;
         without one, the shipped network of ``material_class`` (general, wood, plastic,
-        metal), or for ``auto`` the one the material classifier picks per photo. ``device``:
+        metal). ``device``:
         the torch device of the networks. ``max_side``: the longest side (px) of the maps; a
         smaller photo keeps its own size."""
         if max_side < 16:

@@ -7,8 +7,7 @@ Per photo (``write_photo_folder``), into ``OUT/<photo stem>/``:
                                train.estimation.full_resolution): linear EXR, sRGB PNG
     normal.exr, normal.png     unit normals at the same resolution, encoded (n + 1) / 2, OpenGL
                                convention
-    material.json              relative specular albedo and Ward roughness, photo, model (and
-                               the classifier's class and probabilities where it chose): the
+    material.json              relative specular albedo and Ward roughness, photo, model: the
                                folder is a material folder that render-dataset reads
     scene.xml                  a Mitsuba scene rendering the estimate under the first probe
                                (render.mitsuba_reference.scene_file)
@@ -118,9 +117,6 @@ def report_section(report: dict) -> str:
                     for file in report["relit"])
     specular = " ".join(f"{v:.4f}" for v in report["specular_albedo"])
     network = html.escape(Path(report["model"]).name)
-    if "class" in report:
-        odds = ", ".join(f"{name} {p:.2f}" for name, p in report["class_probabilities"].items())
-        network += f" (class {html.escape(report['class'])} by the classifier: {odds})"
     return (f"<h2>{name}</h2>"
             + figure(f"{folder}/photo.png", f"{name}: the photo", "photo")
             + figure(f"{folder}/albedo.png", f"{name}: estimated relative diffuse albedo, "

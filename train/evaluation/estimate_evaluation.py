@@ -9,8 +9,7 @@ material folders, rendered here by the torch renderer under the probes of ``--pr
 Each test image goes the way a user's photo goes: it is saved as an 8-bit PNG, gamma 1/2.2
 encoded, and read back by train.data.photos.read_photo (gamma 2.2 decoding, centre square,
 resize), then estimated by train.estimation.estimator.estimate with the network
-train.estimation.network_choice gives it (with ``--class auto``, the shipped network the
-material classifier picks for that photo), exactly as ``sa-estimate`` does. The truth is box
+train.estimation.network_choice gives it, exactly as ``sa-estimate`` does. The truth is box
 filtered to the network's input size when the data has another.
 
 Errors per sample (all on the paper's relative quantities, natural logs):
@@ -60,8 +59,7 @@ from train.data.labeled_dataset import LabeledDataset
 from train.data.map_samples import MapSampler
 from train.data.photos import PHOTO_GAMMA, read_photo
 from train.estimation.estimator import estimate
-from train.estimation.material_classifier import ROUTES
-from train.estimation.network_choice import ClassRouter, FixedNetwork
+from train.estimation.network_choice import FixedNetwork
 from train.training.losses import maps_at_size
 
 NAIVE_SPECULAR = 0.08
@@ -150,7 +148,7 @@ def as_photo_file(image: np.ndarray, folder: str | Path, name: str) -> Path:
     return path
 
 
-def model_estimate(choice: FixedNetwork | ClassRouter,
+def model_estimate(choice: FixedNetwork,
                    photo: np.ndarray) -> tuple[dict[str, torch.Tensor], dict]:
     """The estimate sa-estimate would write, as a dict of (1, ...) tensors, and the dict that
     says which network made it (train.estimation.network_choice)."""
@@ -226,7 +224,7 @@ def held_out_probes(cfg: EvaluationConfig) -> set[str]:
             for record in LabeledDataset(folder, "test").samples}
 
 
-def run(cfg: EvaluationConfig, choice: FixedNetwork | ClassRouter) -> dict:
+def run(cfg: EvaluationConfig, choice: FixedNetwork) -> dict:
     """Evaluate the estimates of the networks ``choice`` gives
     (train.estimation.network_choice) on the data of ``cfg``; write results.json and
     figure.png into ``cfg.out``; return the report dict. Each sample's errors are kept in
@@ -286,9 +284,6 @@ def run(cfg: EvaluationConfig, choice: FixedNetwork | ClassRouter) -> dict:
               "data": list(cfg.datasets) or cfg.materials,
               "split": cfg.split if cfg.datasets else None,
               "samples": len(records), "mean": summary(records), "per_sample": records}
-    if any("class" in record for record in records):
-        report["classes_chosen"] = {route: sum(record.get("class") == route for record in records)
-                                    for route in ROUTES}
     with atomic_path(out / "results.json") as tmp:
         tmp.write_text(json.dumps(report, indent=1))
     write_figure(out / "figure.png", figure_rows)

@@ -63,9 +63,9 @@ def save_weights_file(module: nn.Module, path: str | Path, metadata: dict[str, A
 
 
 def model_metadata(path: str | Path, file_format: str, what: str) -> dict[str, str]:
-    """The metadata dict (str -> str) of the safetensors file ``path`` (a shipped model, the
-    material classifier), which must exist and declare ``file_format``; ``what`` names the
-    kind of file in the one-line errors."""
+    """The metadata dict (str -> str) of the safetensors file ``path`` (a shipped model), which
+    must exist and declare ``file_format``; ``what`` names the kind of file in the one-line
+    errors."""
     path = Path(path)
     if not path.is_file():
         raise InputError(path, f"{what} file not found")
