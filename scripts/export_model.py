@@ -4,6 +4,8 @@
         --class wood --recipe "the sa-train command"
 """
 
+from pathlib import Path
+
 import click
 
 from render.common.errors import InputError
@@ -19,7 +21,7 @@ def main(model, out, material_class, recipe):
     try:
         net = load_network(model)
         save_model(net, out, {"class": material_class, "recipe": recipe,
-                              "trained_from": net.source})
+                              "trained_from": Path(net.source).name})
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
 

@@ -11,6 +11,7 @@ of the fit. Prints a JSON line: that error with and without the correction.
 """
 
 import json
+from pathlib import Path
 
 import click
 
@@ -33,7 +34,7 @@ from train.fits.part_fitting import fit_part_onto_model
 def main(model, out, maps, probes, work, photos, steps, seed):
     cfg = FitConfig(work=work, maps=maps, photos=photos, steps=steps, seed=seed)
     command = (f"scripts/fit_albedo_correction.py --photos {photos} --steps {steps} "
-               f"--seed {seed}, maps {maps}")
+               f"--seed {seed}, maps folder {Path(maps).name}")
     try:
         report = fit_part_onto_model(model, out, "albedo_correction", probes,
                                      lambda net, bank: fit(cfg, net, bank), command)

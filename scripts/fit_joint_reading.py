@@ -11,6 +11,7 @@ that error with and without the head.
 """
 
 import json
+from pathlib import Path
 
 import click
 import torch
@@ -40,7 +41,7 @@ def main(model, out, maps, probes, work, photos, relights, mix_specular, steps, 
                     mix_specular=mix_specular, steps=steps, seed=seed)
     specular = "--mix-specular" if mix_specular else "--own-specular"
     command = (f"scripts/fit_joint_reading.py --photos {photos} --relights {relights} "
-               f"{specular} --steps {steps} --seed {seed}, maps {maps}")
+               f"{specular} --steps {steps} --seed {seed}, maps folder {Path(maps).name}")
     try:
         report = fit_part_onto_model(model, out, "joint_reading", probes,
                                      lambda net, bank: fit(cfg, net, bank), command)
