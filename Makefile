@@ -31,8 +31,8 @@ demo: setup
 		--probes probes --out $(DEMO_OUT)/train --network small --labeled-epochs 3 \
 		--self-augmented-epochs 3 --log-every 10
 	@echo "Loss curves, test examples with ground truth: $(DEMO_OUT)/train/{loss_curves,examples}.png"
-	# sa-estimate and sa-evaluate never overwrite an output folder: a repeated demo starts
-	# its own estimates and evaluation afresh (the steps above resume or skip what exists)
+	# sa-estimate and sa-evaluate continue a folder only with the same model and options: a
+	# repeated demo (whose run above may have trained on) starts its estimates afresh
 	rm -rf $(DEMO_OUT)/estimate-demo-run $(DEMO_OUT)/estimate $(DEMO_OUT)/evaluate
 	$(BIN)/sa-estimate scenes/photos/brick-reference-01.jpg --model $(DEMO_OUT)/train \
 		--out $(DEMO_OUT)/estimate-demo-run --probe probes/env-studio.exr
