@@ -215,7 +215,8 @@ def train_run(cfg: ValidationConfig, renderer: SphereRenderer, labeled_mask: np.
             index = rng.integers(len(unlabeled), size=cfg.batch_size)
             with torch.no_grad():
                 photos = renderer(unlabeled[index], unlabeled_lightings[index])
-            chosen = from_targets(provisional_parameters(net, photos).cpu().numpy())
+            chosen = from_targets(provisional_parameters(net, photos, batch_statistics=False)
+                                  .cpu().numpy())
         images = renderer(chosen, rng.integers(cfg.lightings, size=cfg.batch_size))
         target = torch.as_tensor(search_space.targets(chosen), dtype=torch.float32,
                                  device=cfg.device)

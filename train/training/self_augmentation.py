@@ -37,18 +37,25 @@ def random_lightings(rng: np.random.Generator, count: int,
     return probe_index, rotation_deg, view
 
 
-def provisional_parameters(net: torch.nn.Module, photos: torch.Tensor) -> Any:
+def provisional_parameters(net: torch.nn.Module, photos: torch.Tensor,
+                           batch_statistics: bool = True) -> Any:
     """The network's predictions for ``photos`` (what ``net(photos)`` returns: SVBRDF-net's
-    parameter dict, BRDF-net's (B, 2) targets), without gradients, with batch norm normalizing
-    by the minibatch's own statistics, as in training; the running statistics are left as they
-    were (the provisional pass is not a training step). Predicting in evaluation mode instead,
-    with running statistics that the self-augmented renders themselves keep moving, biased the
-    predictions and let the specular albedo drift (docs/training.md). Both self-augmentations
+    parameter dict, BRDF-net's (B, 2) targets), without gradients; the running statistics are
+    left as they were (the provisional pass is not a training step). Both self-augmentations
     take their provisional labels here: SVBRDF-net's (``self_augmented_batch``) and BRDF-net's
-    in the paper's validation (train.brdf_validation.validation)."""
+    in the paper's validation (train.brdf_validation.validation).
+
+    ``batch_statistics``: batch norm normalizes by the minibatch's own statistics, as in
+    training (SVBRDF-net: predicting with the running statistics instead, which the
+    self-augmented renders themselves keep moving, biased the predictions and let the specular
+    albedo drift, docs/training.md); or, False, by the running statistics, as in evaluation
+    (BRDF-net: its labeled set can be 8 corners of the search space and its unlabeled spheres
+    the interior, a minibatch of which its own statistics would normalize toward the corners';
+    with the minibatch's statistics its 2x2x2 error with self-augmentation was 1.2x to 1.7x
+    higher in each of 3 seeds, docs/brdf-validation.md)."""
     running = [buffer.clone() for buffer in net.buffers()]
     training = net.training
-    net.train()
+    net.train(batch_statistics)
     with torch.no_grad():
         prediction = net(photos)
         for buffer, saved in zip(net.buffers(), running):
