@@ -12,6 +12,7 @@ read-only folders, so the case cannot be produced here.
 """
 
 import json
+import os
 import re
 import resource
 import subprocess
@@ -44,11 +45,17 @@ def run(command, out, **options):
 def files(folder):
     """Files under ``folder`` by relative path; hidden ones (temporaries ``.name.tmpPID``, a
     photo folder being written ``.stem.partial/``, the ``.lock``) and the append-only
-    TensorBoard logs left out."""
-    return {str(p.relative_to(folder)): p for p in sorted(Path(folder).rglob("*"))
-            if p.is_file() and not any(part.startswith(".")
-                                       for part in p.relative_to(folder).parts)
-            and "tensorboard" not in p.parts}
+    TensorBoard logs left out. Safe while a run renames folders in it (os.walk skips a folder
+    that is gone by the time it is listed; hidden folders are never entered)."""
+    found = {}
+    for root, folders, names in os.walk(folder):
+        folders[:] = [name for name in folders if not name.startswith(".")]
+        for name in names:
+            path = Path(root) / name
+            relative = path.relative_to(folder)
+            if not name.startswith(".") and "tensorboard" not in relative.parts:
+                found[str(relative)] = path
+    return dict(sorted(found.items()))
 
 
 def assert_complete(path):
