@@ -276,9 +276,10 @@ def run(cfg: EvaluationConfig, choice: FixedNetwork) -> dict:
                 if kind == "model" and i in shown:
                     figure_rows.append(figure_row(photo, parameters, truth, relit[0],
                                                   relit_truth[0]))
+            text = json.dumps(record)
             with atomic_path(record_file) as tmp:
-                tmp.write_text(json.dumps(record))
-            records.append(read_record(record_file))  # as a resumed run reads it
+                tmp.write_text(text)
+            records.append(json.loads(text))  # as a resumed run reads it back
     models = sorted({record["network"] for record in records})
     report = {"model": models[0] if len(models) == 1 else models,
               "data": list(cfg.datasets) or cfg.materials,
