@@ -115,12 +115,10 @@ class PlanarSampleRenderer:
             self._scenes[key] = (scene, self.mi.traverse(scene))
         return self._scenes[key]
 
-    def render(self, svbrdf: Any, probe: Probe, rotation_deg: float = 0.0,
-               view: np.ndarray | Sequence[float] = (0.0, 0.0, 1.0), seed: int = 0,
-               spp: int | None = None) -> np.ndarray:
-        """HDR radiance (H, W, 3) of ``svbrdf`` under ``probe`` rotated by ``rotation_deg``."""
+    def _prepare(self, svbrdf, probe, rotation_deg, view, spp):
+        """The scene of these inputs with every parameter set; (scene, parameters, rows per
+        strip)."""
         mi = self.mi
-        spp = spp or self.spp
         height, width = svbrdf.albedo.shape[:2]
         rows_per_strip = min(height, max(1, self.lane_budget // (width * spp)))
         scene, params = self._scene(svbrdf, probe, rotation_deg, view, spp, rows_per_strip)
@@ -138,12 +136,66 @@ class PlanarSampleRenderer:
             [radiance[:, -1:], radiance, radiance[:, :1]], axis=1)))
         params["probe.to_world"] = mi.AffineTransform4f(probe_to_world(rotation_deg))
         params["sensor.to_world"] = mi.AffineTransform4f(camera_to_world(view))
-        strips = []
+        return scene, params, rows_per_strip
+
+    def _strips(self, params, height, width, rows_per_strip):
+        """Select each strip of rows in turn on the film: yields (strip index, first row,
+        rows)."""
+        mi = self.mi
         for index, top in enumerate(range(0, height, rows_per_strip)):
             rows = min(rows_per_strip, height - top)
             params["sensor.film.crop_offset"] = mi.ScalarPoint2u(0, top)
             params["sensor.film.crop_size"] = mi.ScalarVector2u(width, rows)
             params.update()
-            strip_seed = (seed * 1_000_003 + index) % (1 << 32)
-            strips.append(np.array(mi.render(scene, seed=strip_seed), dtype=np.float32))
+            yield index, top, rows
+
+    def render(self, svbrdf: Any, probe: Probe, rotation_deg: float = 0.0,
+               view: np.ndarray | Sequence[float] = (0.0, 0.0, 1.0), seed: int = 0,
+               spp: int | None = None) -> np.ndarray:
+        """HDR radiance (H, W, 3) of ``svbrdf`` under ``probe`` rotated by ``rotation_deg``."""
+        spp = spp or self.spp
+        height, width = svbrdf.albedo.shape[:2]
+        scene, params, rows_per_strip = self._prepare(svbrdf, probe, rotation_deg, view, spp)
+        strips = []
+        for index, _, _ in self._strips(params, height, width, rows_per_strip):
+            strips.append(np.array(self.mi.render(scene, seed=_strip_seed(seed, index)),
+                                   dtype=np.float32))
         return np.concatenate(strips, axis=0)
+
+    def gradients(self, svbrdf: Any, probe: Probe, rotation_deg: float,
+                  view: np.ndarray | Sequence[float], cotangent: np.ndarray, seed: int = 0,
+                  spp: int | None = None) -> dict[str, np.ndarray]:
+        """Gradients of sum(cotangent * image) by Mitsuba's automatic differentiation, where
+        image is the HDR render of ``render()`` at this seed and ``cotangent`` an (H, W, 3)
+        array: ``albedo`` and ``normal`` (H, W, 3, our row order; the normal's raw stored
+        values, normalized by the BSDF), ``specular`` (3,) and ``roughness`` (a float, per unit
+        of Ward alpha). One unbiased Monte Carlo estimate (ward_bsdf.py says why)."""
+        import drjit as dr  # imported by load_mitsuba in __init__ already
+
+        mi = self.mi
+        spp = spp or self.spp
+        height, width = svbrdf.albedo.shape[:2]
+        scene, params, rows_per_strip = self._prepare(svbrdf, probe, rotation_deg, view, spp)
+        keys = dict(albedo="sample.bsdf.albedo.data", normal="sample.bsdf.normal.data",
+                    specular="sample.bsdf.specular", roughness="sample.bsdf.alpha")
+        for key in keys.values():
+            dr.enable_grad(params[key])
+        try:
+            for index, top, rows in self._strips(params, height, width, rows_per_strip):
+                image = mi.render(scene, params, seed=_strip_seed(seed, index))
+                weights = mi.TensorXf(np.ascontiguousarray(cotangent[top:top + rows],
+                                                           np.float32))
+                dr.backward(dr.sum(image * weights, axis=None))
+            grads = {name: np.array(dr.grad(params[key])) for name, key in keys.items()}
+        finally:
+            for key in keys.values():
+                dr.disable_grad(params[key])
+        return dict(albedo=np.flipud(grads["albedo"]).copy(),
+                    normal=np.flipud(grads["normal"]).copy(),
+                    specular=grads["specular"].reshape(3),
+                    roughness=float(grads["roughness"].reshape(-1)[0]))
+
+
+
+def _strip_seed(seed: int, index: int) -> int:
+    return (seed * 1_000_003 + index) % (1 << 32)

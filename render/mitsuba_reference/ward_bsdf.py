@@ -16,6 +16,13 @@ Sampling mixes cosine-weighted hemisphere sampling (diffuse lobe) with Walter's 
 importance sampling of the Ward half-vector distribution, p(h) = exp(-tan^2 d / a^2) /
 (pi a^2 cos^3 d), chosen with probability proportional to the lobes' mean albedos.
 
+Derivatives (``check-renderer --gradients`` takes them with Mitsuba's AD): the four inputs are
+differentiable parameters. Sampled directions and pdfs are detached from them, so a sample's
+derivative is that of the integrand at a fixed direction over a constant pdf; the
+integrator's MIS weights of the BSDF and probe samples sum to one whatever the parameters, so
+the estimate of the derivative is unbiased (no boundary terms: the plane is fixed and the
+integrand vanishes where a cosine cut moves with the normal).
+
 Import this module only after a Mitsuba variant is set (``render.mitsuba_reference.loading``).
 """
 
@@ -58,7 +65,7 @@ class WardSVBRDF(mi.BSDF):
         return dr.select(spec + diff > 0, spec / (spec + diff), 0.0)
 
     def _eval_pdf_local(self, albedo, wi, wo, wo_geom_z, wi_geom_z, p_spec):
-        """BRDF * cos and mixture pdf for directions in the shading frame."""
+        """BRDF * cos and mixture pdf (detached) for directions in the shading frame."""
         cos_i, cos_o = wi.z, wo.z
         valid = (cos_i > 0) & (cos_o > 0) & (wo_geom_z > 0) & (wi_geom_z > 0)
         h = dr.normalize(wi + wo)
@@ -72,7 +79,7 @@ class WardSVBRDF(mi.BSDF):
         pdf_spec = pdf_h / (4 * dr.abs(dr.dot(wo, h)))
         pdf_diff = cos_o * dr.inv_pi
         pdf = dr.select(valid, p_spec * pdf_spec + (1 - p_spec) * pdf_diff, 0.0)
-        return value, pdf
+        return value, dr.detach(pdf)
 
     def _evaluate(self, si, wo, active):
         frame = self._shading_frame(si, active)
@@ -97,11 +104,12 @@ class WardSVBRDF(mi.BSDF):
                active: bool | mi.Bool = True) -> tuple[mi.BSDFSample3f, mi.Color3f]:
         frame = self._shading_frame(si, active)
         albedo = self.albedo.eval(si, active)
+        fixed = _detached_frame(frame)  # the sampled direction does not move with parameters
         p_spec = self._spec_probability(albedo)
-        wi = frame.to_local(si.wi)
+        wi = fixed.to_local(si.wi)
 
         choose_spec = sample1 < p_spec
-        tan_d2 = -dr.square(self.alpha) * dr.log(1 - sample2.x)
+        tan_d2 = -dr.square(dr.detach(self.alpha)) * dr.log(1 - sample2.x)
         cos_d = dr.rsqrt(1 + tan_d2)
         sin_d = dr.safe_sqrt(1 - dr.square(cos_d))
         sin_p, cos_p = dr.sincos(2 * dr.pi * sample2.y)
@@ -109,9 +117,10 @@ class WardSVBRDF(mi.BSDF):
         wo_spec = 2 * dr.dot(wi, h) * h - wi
         wo_diff = mi.warp.square_to_cosine_hemisphere(sample2)
         wo_local = dr.select(choose_spec, wo_spec, wo_diff)
-        wo = frame.to_world(wo_local)
+        wo = fixed.to_world(wo_local)
 
-        value, pdf = self._eval_pdf_local(albedo, wi, wo_local, wo.z, si.wi.z, p_spec)
+        value, pdf = self._eval_pdf_local(albedo, frame.to_local(si.wi), frame.to_local(wo),
+                                          wo.z, si.wi.z, p_spec)
         bs = dr.zeros(mi.BSDFSample3f)
         bs.wo = wo
         bs.pdf = pdf
@@ -123,16 +132,20 @@ class WardSVBRDF(mi.BSDF):
         return bs, weight & active
 
     def traverse(self, callback: mi.TraversalCallback) -> None:
-        callback.put("specular", self.specular, mi.ParamFlags.NonDifferentiable)
-        callback.put("alpha", self.alpha, mi.ParamFlags.NonDifferentiable)
-        callback.put("albedo", self.albedo, mi.ParamFlags.NonDifferentiable)
-        callback.put("normal", self.normal, mi.ParamFlags.NonDifferentiable)
+        callback.put("specular", self.specular, mi.ParamFlags.Differentiable)
+        callback.put("alpha", self.alpha, mi.ParamFlags.Differentiable)
+        callback.put("albedo", self.albedo, mi.ParamFlags.Differentiable)
+        callback.put("normal", self.normal, mi.ParamFlags.Differentiable)
 
     def parameters_changed(self, keys: Sequence[str]) -> None:
         dr.make_opaque(self.specular, self.alpha)
 
     def to_string(self) -> str:
         return f"WardSVBRDF[specular={self.specular}, alpha={self.alpha}]"
+
+
+def _detached_frame(frame: mi.Frame3f) -> mi.Frame3f:
+    return mi.Frame3f(dr.detach(frame.s), dr.detach(frame.t), dr.detach(frame.n))
 
 
 def register() -> None:

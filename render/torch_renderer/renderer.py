@@ -10,12 +10,14 @@ loop computes the broad-lobe tables, each sample's with matrix products.
 Method. With an orthographic view and distant light, a texel's radiance depends on the texel
 only through its albedo and its normal n:
 
-    L(x) = rho_d(x) * D(n) + rho_s * S(n)
+    L(x) = rho_d(x) * D(n) + rho_s * S(n) / sqrt(n.v)
     D(n) = 1/pi  * integral over z > 0 of L_probe(w) max(n.w, 0) dw
-    S(n) = integral over z > 0 of L_probe(w) ward(w, v, n) max(n.w, 0) dw,  rho_s = 1
+    S(n) = integral over z > 0 of L_probe(w) ward(w, v, n) max(n.w, 0) sqrt(n.v) dw,  rho_s = 1
 
-(both zero where the view is behind the normal, n.v <= 0). Per sample, D and S are tabulated
-over normal directions covering the sample's normals and looked up bicubically per pixel.
+(zero where the view is behind the normal, n.v <= 0). Ward's view factor 1 / sqrt(n.v) grows
+without bound toward the view's horizon and is applied per pixel; S without it is smooth in n.
+Per sample, D and S are tabulated over normal directions covering the sample's normals, with
+one entry of margin, and looked up per pixel by Catmull-Rom bicubic interpolation.
 Normals are parameterized stereographically, p = (n_x, n_y) / (1 + n_z): the map is conformal,
 so a lobe stays round in p, and a table cell of size c spans an angle of at most 2 c.
 
@@ -53,7 +55,7 @@ from render.materials.reduced_svbrdf import ALPHA_RANGE
 
 DIFFUSE_BLOCK_ANGLE = 0.1  # radians
 GLOSSY_BLOCK_ANGLE = 0.05
-DIFFUSE_TABLE = 25
+DIFFUSE_TABLE = 27  # 24 cells over the table range, one entry of margin each side
 CELLS_PER_SIGMA = 2.0
 BROAD_CELLS_PER_SIGMA = 6.0
 STENCIL_SIGMAS = 3.0
@@ -169,10 +171,18 @@ def rotate_z(vectors: torch.Tensor, rotation_deg: torch.Tensor) -> torch.Tensor:
 
 
 def ward_kernel(cos_h: torch.Tensor, cos_i: torch.Tensor, cos_o: torch.Tensor,
-                alpha: torch.Tensor) -> torch.Tensor:
+                alpha: torch.Tensor | float) -> torch.Tensor:
     """Ward lobe times cosine, f_s cos(theta_i) / rho_s, from the cosines of the half vector,
     the light and the view with the normal; zero where the light or the view is behind the
-    normal, and negligible (a relative weight of e^-80) where the half vector is.
+    normal (see _ward_lobe for the half vector)."""
+    view_factor = torch.where(cos_o > 0, cos_o, torch.inf).rsqrt()  # zero behind the normal
+    return _ward_lobe(cos_h, cos_i, alpha) * view_factor
+
+
+def _ward_lobe(cos_h, cos_i, alpha):
+    """f_s cos(theta_i) sqrt(cos(theta_o)) / rho_s: the Ward kernel without its view factor
+    1 / sqrt(cos(theta_o)), which is smooth in the normal up to and across the view's horizon
+    (the tables hold it; render() applies the view factor per pixel).
 
     Written for few passes over large (entries x probe blocks) arrays: a half vector at or
     behind the normal's horizon is floored at cos_h = 1e-3, and the exponent at -80 (a relative
@@ -181,8 +191,7 @@ def ward_kernel(cos_h: torch.Tensor, cos_i: torch.Tensor, cos_o: torch.Tensor,
     a2 = alpha * alpha
     inverse_cos_h2 = cos_h.clamp(min=1e-3).pow(-2)
     lobe = torch.exp(((1 - inverse_cos_h2) / a2).clamp(min=-80)) / (4 * math.pi * a2)
-    view_factor = torch.where(cos_o > 0, cos_o, torch.inf).rsqrt()  # zero behind the normal
-    return lobe * cos_i.clamp(min=0).sqrt() * view_factor
+    return lobe * cos_i.clamp(min=0).sqrt()
 
 
 class _Layout:
@@ -198,8 +207,12 @@ class _Layout:
             step = sigma / (2 * cells)  # the stereographic map halves angles at +z
             step = torch.exp2(torch.floor(4 * torch.log2(step)) / 4)
             flat = p_pixels.detach().double().flatten(1, 2)  # (B, HW, 2)
-            low = torch.floor(flat.amin(1) / step[:, None])
-            high = torch.maximum(torch.ceil(flat.amax(1) / step[:, None]), low + 1)
+            # One entry of margin beyond the pixels' range on each side: a bicubic lookup
+            # reads one entry before and two after its cell, so every lookup then reads
+            # computed entries, never the border padding (which would bend the interpolant
+            # and halve its slope at the edge).
+            low = torch.floor(flat.amin(1) / step[:, None]) - 1
+            high = torch.maximum(torch.ceil(flat.amax(1) / step[:, None]), low + 2) + 1
             corner = torch.maximum(low.abs(), high.abs()) * step[:, None]
             outer = torch.sqrt((corner * corner).sum(-1))  # largest |p| in the table
             theta = 2 * torch.atan(outer)
@@ -246,22 +259,56 @@ def _table_coordinates(p, step, origin):
     return p / step.to(p.dtype)[:, None, None, None] - origin.to(p.dtype)[:, None, None, :]
 
 
+def _cell_corners(coordinates, sizes):
+    """Lower-left entries (B, H, W, 2) of the cells holding ``coordinates`` (B, H, W, 2), in
+    entries (x, y), of tables with (B, 2) entries per axis: at least 1 and at most size - 3,
+    so that the four entries per axis a lookup reads, corner - 1 to corner + 2, lie in the
+    table (the layout's margin keeps every coordinate in [1, size - 2])."""
+    limit = (sizes - 3).to(coordinates.device)[:, None, None, :]
+    return torch.minimum(torch.floor(coordinates.detach()).long().clamp(min=1), limit)
+
+
+def _catmull_rom_weights(t):
+    """The four Catmull-Rom weights of entries -1, 0, 1, 2 at fractions t in [0, 1]."""
+    t2, t3 = t * t, t * t * t
+    return ((2 * t2 - t3 - t) / 2, (3 * t3 - 5 * t2 + 2) / 2, (4 * t2 - 3 * t3 + t) / 2,
+            (t3 - t2) / 2)
+
+
 def _lookup(table, coordinates, sizes):
-    """Bicubic lookup of tables (B, 3, T, T) at coordinates (B, H, W, 2) in entries; the
-    interpolant's small overshoots below zero are clamped."""
-    scale = 2.0 / (sizes - 1)
-    grid = coordinates * scale - 1
-    return torch.nn.functional.grid_sample(table, grid, mode="bicubic", padding_mode="border",
-                                           align_corners=True).clamp(min=0)
+    """Bicubic (Catmull-Rom) lookup of tables (B, C, T, T) at coordinates (B, H, W, 2) in
+    entries (x, y), each sample's table holding (B, 2) entries per axis: (B, C, H, W). The
+    interpolant's small overshoots below zero are clamped.
+
+    Catmull-Rom is the cubic convolution whose derivative at an entry is the central
+    difference of its neighbours; torch's grid_sample "bicubic" (cubic convolution with
+    a = -0.75) has 1.5 times that slope at entries, which shows as normal-map gradients up to
+    1.5x too large (check-renderer --gradients) and as a larger interpolation error."""
+    batch, channels, size, _ = table.shape
+    corner = _cell_corners(coordinates, sizes)
+    fraction = coordinates - corner.to(coordinates.dtype)
+    wx = _catmull_rom_weights(fraction[..., 0])
+    wy = _catmull_rom_weights(fraction[..., 1])
+    flat = table.reshape(batch, channels, size * size)
+    result = 0
+    for j in range(4):
+        row = (corner[..., 1] + (j - 1)) * size
+        for i in range(4):
+            index = (row + corner[..., 0] + (i - 1)).reshape(batch, 1, -1)
+            values = flat.gather(2, index.expand(-1, channels, -1)).reshape(
+                batch, channels, *coordinates.shape[1:3])
+            result = result + values * (wy[j] * wx[i])[:, None]
+    return result.clamp(min=0)
 
 
 def _diffuse_tables(probes, probe_index, rotation, layout, dtype):
-    """D over DIFFUSE_TABLE^2 normals spanning each sample's table range: (B, 3, N, N)."""
+    """D over DIFFUSE_TABLE^2 normals: entries 1 to DIFFUSE_TABLE - 2 span each sample's table
+    range, and one entry of margin on each side (see _Layout): (B, 3, N, N)."""
     batch = probe_index.shape[0]
     k = torch.arange(DIFFUSE_TABLE, dtype=dtype, device=probe_index.device)
     span = (layout.size - 1).to(dtype) * layout.step.to(dtype)[:, None]
     low = layout.origin.to(dtype) * layout.step.to(dtype)[:, None]
-    fraction = k / (DIFFUSE_TABLE - 1)
+    fraction = (k - 1) / (DIFFUSE_TABLE - 3)
     px = low[:, 0, None] + span[:, 0, None] * fraction  # (B, N)
     py = low[:, 1, None] + span[:, 1, None] * fraction
     p = torch.stack(torch.broadcast_tensors(px[:, None, :], py[:, :, None]), -1)
@@ -325,7 +372,7 @@ def _specular_tables(lattice_energy, view, roughness, layout, entries, dtype):
         cos_h = (h @ normal[:, :, None]).squeeze(-1)
         cos_o = (normal * view[b]).sum(-1, keepdim=True)
         cos_i = 2 * h_dot_v.squeeze(-1) * cos_h - cos_o
-        weight = ward_kernel(cos_h, cos_i, cos_o, roughness[b][:, None])
+        weight = _ward_lobe(cos_h, cos_i, roughness[b][:, None])
         results.append((weight[:, None, :] @ energy).squeeze(1))
     return torch.cat(results) if results else lattice_energy.new_zeros(0, 3)
 
@@ -359,8 +406,7 @@ def _broad_specular_tables(probes, probe_index, rotation, view, roughness, layou
             part = rows[start:start + chunk]
             b, y, x = part.unbind(1)
             normal = _entry_normals(layout, b, y, x, dtype)  # (E', 3)
-            weight = ward_kernel(normal @ half.T, normal @ light.T, (normal @ v)[:, None],
-                                 roughness[sample])
+            weight = _ward_lobe(normal @ half.T, normal @ light.T, roughness[sample])
             yield part, weight @ energy[probe].to(dtype)
 
 
@@ -368,14 +414,13 @@ def _touched_entries(coordinates, layout):
     """(sample, y, x) rows of the table entries that bicubic lookups at ``coordinates``
     (B, H, W, 2) touch."""
     batch, table = coordinates.shape[0], layout.table
-    limit = (layout.size - 2).to(coordinates.device)[:, None, None, :]
-    corner = torch.minimum(torch.floor(coordinates.detach()).long().clamp(min=0), limit)
+    corner = _cell_corners(coordinates, layout.size)
     corners = torch.zeros(batch, table, table, dtype=torch.bool, device=coordinates.device)
     sample = torch.arange(batch, device=coordinates.device)[:, None, None].expand(
         corner.shape[:3])
     corners[sample, corner[..., 1], corner[..., 0]] = True
     # A lookup with its lower-left corner at entry c touches c - 1 ... c + 2 on each axis:
-    # dilate the corners (entries beyond the table edge are never needed: c <= size - 2).
+    # dilate the corners.
     touched = torch.zeros_like(corners)
     for dy in (-1, 0, 1, 2):
         for dx in (-1, 0, 1, 2):
@@ -411,9 +456,10 @@ def render(albedo: torch.Tensor, normal: torch.Tensor, specular: torch.Tensor,
 
     coordinates = _table_coordinates(p, layout.step, layout.origin)
     diffuse_table = _diffuse_tables(probes, probe_index, rotation, layout, dtype)
-    diffuse_coordinates = coordinates * ((DIFFUSE_TABLE - 1) / (layout.size - 1).to(dtype))[
-        :, None, None, :]
-    diffuse = _lookup(diffuse_table, diffuse_coordinates, DIFFUSE_TABLE)
+    diffuse_coordinates = 1 + coordinates * (
+        (DIFFUSE_TABLE - 3) / (layout.size - 1).to(dtype))[:, None, None, :]
+    diffuse = _lookup(diffuse_table, diffuse_coordinates,
+                      torch.full_like(layout.size, DIFFUSE_TABLE))
 
     table = torch.zeros(batch, layout.table, layout.table, 3, dtype=dtype, device=device)
     entries = _touched_entries(coordinates, layout)
@@ -426,10 +472,13 @@ def render(albedo: torch.Tensor, normal: torch.Tensor, specular: torch.Tensor,
     for part, values in _broad_specular_tables(probes, probe_index, rotation, view, roughness,
                                                layout, entries[broad], dtype):
         table = table.index_put((part[:, 0], part[:, 1], part[:, 2]), values)
-    glossy = _lookup(table.permute(0, 3, 1, 2), coordinates, layout.table)
+    glossy = _lookup(table.permute(0, 3, 1, 2), coordinates, layout.size)
 
-    facing = ((unit_normal * view[:, :, None, None]).sum(1, keepdim=True) > 0).to(dtype)
-    return (albedo * diffuse + specular[:, :, None, None] * glossy) * facing
+    cos_o = (unit_normal * view[:, :, None, None]).sum(1, keepdim=True)
+    facing = cos_o > 0
+    view_factor = torch.where(facing, cos_o, torch.ones_like(cos_o)).rsqrt()
+    return torch.where(facing, albedo * diffuse + specular[:, :, None, None] * glossy
+                       * view_factor, torch.zeros_like(albedo))
 
 
 def _check_inputs(albedo, normal, specular, roughness, probes, probe_index):
