@@ -23,9 +23,19 @@ from render.torch_renderer.check import DEFAULT_ROUGHNESS, CheckConfig, run
 @click.option("--threshold", default=40.0, show_default=True,
               help="Fail when any case's PSNR (dB) is below this.")
 @click.option("--out", type=click.Path(), default=None,
-              help="Write side-by-side images (Mitsuba | torch | 10x difference) and report.json.")
+              help="Write side-by-side images (Mitsuba | torch | 10x difference) and "
+                   "report.json (with --gradients: gradients.json).")
+@click.option("--gradients", is_flag=True,
+              help="Compare gradients with Mitsuba's automatic differentiation instead of "
+                   "images (--spp is then per pass).")
+@click.option("--passes", default=8, show_default=True,
+              help="With --gradients: independent Mitsuba estimates per case.")
+@click.option("--tolerance", default=0.02, show_default=True,
+              help="With --gradients: fail where a relative L2 error exceeds this plus 3 "
+                   "times the reference's relative noise.")
 def main(roughness: str, **options: Any) -> None:
-    """Compare the torch renderer with converged Mitsuba renders; exit 1 over the threshold."""
+    """Compare the torch renderer with converged Mitsuba renders; exit 1 over the threshold.
+    With --gradients, compare their gradients; exit 1 where they disagree."""
     try:
         values = tuple(float(v) for v in roughness.split(","))
     except ValueError:
@@ -35,6 +45,9 @@ def main(roughness: str, **options: Any) -> None:
         report = run(cfg)
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
+    if cfg.gradients:
+        _report_gradients(report)
+        return
     for row in report["rows"]:
         click.echo(f"{row['psnr_db']:7.2f} dB  rel.MSE {row['relative_mse']:.2e}  "
                    f"alpha {row['roughness']:<5} {row['material']} / {row['probe']}")
@@ -42,6 +55,22 @@ def main(roughness: str, **options: Any) -> None:
     if report["worst"]["psnr_db"] < cfg.threshold:
         raise click.ClickException(
             f"worst case {report['worst']['psnr_db']:.2f} dB is below {cfg.threshold} dB")
+
+
+def _report_gradients(report: dict) -> None:
+    """One line per case and parameter (relative L2 error, reference noise, cosine), the
+    summary; exit 1 where a case disagrees."""
+    from render.torch_renderer.gradient_check import PARAMETERS
+
+    for row in report["rows"]:
+        cells = "  ".join(f"{name} {row[name]['error']:.4f}+-{row[name]['noise']:.4f} "
+                          f"cos {row[name]['cosine']:.5f}" for name in PARAMETERS)
+        click.echo(f"alpha {row['alpha']:<5} {row['material']} / {row['probe']}: {cells}")
+    click.echo(json.dumps({k: v for k, v in report.items() if k != "rows"}, indent=2))
+    failed = [name for name in PARAMETERS if not report["summary"][name]["all_agree"]]
+    if failed:
+        raise click.ClickException(f"gradients disagree beyond the tolerance plus 3x the "
+                                   f"reference's noise: {', '.join(failed)}")
 
 
 if __name__ == "__main__":

@@ -53,7 +53,17 @@ class CheckConfig:
     threshold: float = 40.0
     """The check fails when any case's PSNR (dB) is below this."""
     out: str | None = None
-    """Folder for side-by-side images (Mitsuba | torch | 10x difference) and report.json."""
+    """Folder for side-by-side images (Mitsuba | torch | 10x difference) and report.json, or
+    with ``gradients`` for gradients.json."""
+    gradients: bool = False
+    """Compare gradients with Mitsuba's automatic differentiation instead of images
+    (render/torch_renderer/gradient_check.py); ``spp`` is then per pass."""
+    passes: int = 8
+    """With ``gradients``: independent Mitsuba estimates per case (their spread is the
+    reference's noise)."""
+    tolerance: float = 0.02
+    """With ``gradients``: the check fails where a relative L2 error exceeds this plus 3 times
+    the reference's relative noise."""
 
 
 @dataclass
@@ -166,8 +176,15 @@ def compare(probes_dir: str | Path, svbrdfs_dir: str | Path, size: int = 64, spp
 
 
 def run(cfg: CheckConfig) -> dict:
-    """``check-renderer``: ``compare`` on the cases of ``cfg``; its report."""
+    """``check-renderer``: ``compare`` (or with ``gradients``, ``compare_gradients``) on the
+    cases of ``cfg``; its report."""
+    from render.torch_renderer.gradient_check import compare_gradients
+
     if cfg.out is not None:
         require_output_folder(cfg.out)
+    if cfg.gradients:
+        return compare_gradients(cfg.probes, cfg.svbrdfs, cfg.size, cfg.spp, cfg.passes,
+                                 cfg.roughness, cfg.max_view_angle, cfg.seed, cfg.tolerance,
+                                 cfg.out)
     return compare(cfg.probes, cfg.svbrdfs, cfg.size, cfg.spp, cfg.roughness,
                    cfg.max_view_angle, cfg.seed, cfg.out)
