@@ -22,6 +22,9 @@ from render.torch_renderer.check import DEFAULT_ROUGHNESS, CheckConfig, run
 @click.option("--seed", default=0, show_default=True)
 @click.option("--threshold", default=40.0, show_default=True,
               help="Fail when any case's PSNR (dB) is below this.")
+@click.option("--confirm-spp", default=0, show_default=True,
+              help="Render the cases below the threshold again at this many samples per pixel "
+                   "and judge them against that reference (0: not).")
 @click.option("--out", type=click.Path(), default=None,
               help="Write side-by-side images (Mitsuba | torch | 10x difference) and "
                    "report.json (with --gradients: gradients.json).")

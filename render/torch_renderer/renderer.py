@@ -30,14 +30,14 @@ unchanged) so that nodes stay a fraction of the lobe width apart (NODES_PER_SIGM
 - S, sharp lobes (roughness < BROAD_ROUGHNESS): every node's energy is splatted bilinearly
   onto a lattice in half-vector space (stereographic coordinates of h = normalize(w + v));
   S at a table normal is the sum of the lattice energies within STENCIL_SIGMAS lobe widths,
-  weighted by the Ward kernel at the lattice half vectors, its alpha narrowed to make up for
-  the splat's blur (_splat_compensated_roughness). Lattice and table share one spacing, a
+  weighted by the Ward kernel at the lattice half vectors (its alpha corrected for the
+  quadrature's blurs, _blur_compensated_roughness). Lattice and table share one spacing, a
   fixed fraction of the lobe width (CELLS_PER_SIGMA), so the cost per table entry does not
   depend on roughness.
-- S, broad lobes: the exact kernel summed over probe blocks a fixed fraction of the lobe wide
-  (GLOSSY_BLOCK_ANGLE at BROAD_ROUGHNESS, at most MAX_GLOSSY_BLOCK_ANGLE), on a finer table
-  (BROAD_CELLS_PER_SIGMA), because near-horizon light makes S change faster with n than the
-  lobe width alone suggests.
+- S, broad lobes: the kernel (alpha corrected likewise) summed over probe blocks a fixed
+  fraction of the lobe wide (GLOSSY_BLOCK_ANGLE at BROAD_ROUGHNESS, at most
+  MAX_GLOSSY_BLOCK_ANGLE), on a finer table (BROAD_CELLS_PER_SIGMA), because near-horizon
+  light makes S change faster with n than the lobe width alone suggests.
 Only the table entries that some pixel's lookup touches are computed. Spacings are rounded to
 quarter octaves and table ranges snapped to the lattice, so the discretization does not move
 under small changes of the inputs: the output is differentiable in the maps, the specular
@@ -358,10 +358,11 @@ def _splat_half_vectors(probes, probe_index, rotation, view, layout, dtype):
     return grid.reshape(batch, size, size, 3)
 
 
-def _specular_tables(lattice_energy, view, roughness, layout, entries, dtype):
+def _specular_tables(lattice_energy, view, roughness, layout, entries, probe_height, dtype):
     """S at the table entries given as (E, 3) rows (sample, y, x): (E, 3)."""
     radius, size = layout.radius, layout.lattice
     step, origin = layout.step.to(dtype), layout.origin.to(dtype)
+    node_spacings = math.pi / (probe_height - 1) / layout.refinement.to(dtype)  # (B,) radians
     # Every lattice vertex's half vector h, h.v and energy, gathered per stencil: (B G G, 7).
     h = _lattice_directions(origin, step, -radius, size)
     h_dot_v = (h * view[:, None, None, :]).sum(-1, keepdim=True)
@@ -381,25 +382,31 @@ def _specular_tables(lattice_energy, view, roughness, layout, entries, dtype):
         cos_h = (h @ normal[:, :, None]).squeeze(-1)
         cos_o = (normal * view[b]).sum(-1, keepdim=True)
         cos_i = 2 * h_dot_v.squeeze(-1) * cos_h - cos_o
-        alpha = _splat_compensated_roughness(roughness[b], normal, step[b])
+        p2 = (normal[:, :2] ** 2).sum(-1) / (1 + normal[:, 2]) ** 2
+        lattice_spacing = 2 * step[b] / (1 + p2)  # radians, at the entry's normal
+        node_spacing = node_spacings[b]
+        alpha = _blur_compensated_roughness(roughness[b], node_spacing ** 2 / 6,
+                                            lattice_spacing ** 2 / 6)
         weight = _ward_lobe(cos_h, cos_i, alpha[:, None])
         results.append((weight[:, None, :] @ energy).squeeze(1))
     return torch.cat(results) if results else lattice_energy.new_zeros(0, 3)
 
 
-def _splat_compensated_roughness(alpha, normal, step):
-    """The Ward alpha (E,) whose lobe, blurred by the lattice's bilinear splat, has the
-    width of ``alpha``'s, at table entries of unit normals (E, 3) and lattice steps (E,).
+def _blur_compensated_roughness(alpha, light_variance, half_vector_variance=0.0):
+    """The Ward alpha to evaluate a quadrature's kernel with so that the lobe it sums has the
+    width of ``alpha``'s; variances per axis in radians^2, tensors broadcasting with alpha.
 
-    Splatting a node's energy bilinearly onto the lattice and summing the kernel at the
-    lattice points evaluates the kernel's bilinear interpolant at the node: on average a blur
-    of variance h^2 / 6 per axis, h the lattice spacing in radians (2 step / (1 + |p|^2) at
-    stereographic |p|). A Ward lobe is close to a Gaussian of variance alpha^2 / 2 per axis,
-    so the kernel is evaluated with alpha'^2 = alpha^2 - h^2 / 3 (alpha' >= 0.97 alpha at
-    CELLS_PER_SIGMA = 1.75). Measured: the worst of 64 hard cases 46.9 -> 51.7 dB."""
-    p2 = (normal[:, :2] ** 2).sum(-1) / (1 + normal[:, 2]) ** 2
-    spacing = 2 * step / (1 + p2)
-    return torch.sqrt(alpha * alpha - spacing * spacing / 3)
+    A Ward lobe is close to a Gaussian of variance alpha^2 / 2 per axis in the half vector.
+    Two blurs move it. Mitsuba integrates the probe's bilinear interpolant, so each node's
+    light is spread over its tent, which the quadrature puts at one direction: a light spread
+    of variance v moves the half vector by v / 4, so the kernel is widened by v / 2 in
+    alpha^2 (``light_variance``: h^2 / 6 for nodes h apart, (b^2 + 1) h^2 / 12 for blocks of
+    b x b nodes). The sharp path's bilinear splat onto the half-vector lattice blurs the half
+    vector by h^2 / 6 per axis, h the lattice spacing: narrowed by twice that
+    (``half_vector_variance``). Measured: the worst of 64 hard cases 46.9 -> 51.7 dB (the
+    splat), d(S)/d(alpha) at alpha 0.5 on a 64-row probe 1.2% -> 0.4% from Mitsuba's (the
+    tents; docs/experiments/2026-12-05-torch-renderer-accuracy.md)."""
+    return torch.sqrt(alpha * alpha + light_variance / 2 - 2 * half_vector_variance)
 
 
 def _entry_normals(layout, b, y, x, dtype):
@@ -412,7 +419,7 @@ def _entry_normals(layout, b, y, x, dtype):
 def _broad_specular_tables(probes, probe_index, rotation, view, roughness, layout, entries,
                            dtype):
     """S at table entries (E, 3) of broad-lobe samples: the probe's blocks weighted by the
-    exact kernel, a block being small next to a broad lobe. Yields (entries, values (E', 3))
+    kernel, a block being small next to a broad lobe. Yields (entries, values (E', 3))
     per sample and chunk of entries.
 
     A block's light direction and half vector depend on the sample only (its probe, rotation
@@ -431,7 +438,10 @@ def _broad_specular_tables(probes, probe_index, rotation, view, roughness, layou
             part = rows[start:start + chunk]
             b, y, x = part.unbind(1)
             normal = _entry_normals(layout, b, y, x, dtype)  # (E', 3)
-            weight = _ward_lobe(normal @ half.T, normal @ light.T, roughness[sample])
+            nodes, spacing = int(layout.block[sample]), math.pi / (probes.height - 1)
+            alpha = _blur_compensated_roughness(roughness[sample],
+                                                (nodes * nodes + 1) * spacing ** 2 / 12)
+            weight = _ward_lobe(normal @ half.T, normal @ light.T, alpha)
             yield part, weight @ energy[probe].to(dtype)
 
 
@@ -492,7 +502,8 @@ def render(albedo: torch.Tensor, normal: torch.Tensor, specular: torch.Tensor,
     sharp = entries[~broad]
     if len(sharp):
         lattice_energy = _splat_half_vectors(probes, probe_index, rotation, view, layout, dtype)
-        values = _specular_tables(lattice_energy, view, roughness, layout, sharp, dtype)
+        values = _specular_tables(lattice_energy, view, roughness, layout, sharp,
+                                  probes.height, dtype)
         table = table.index_put((sharp[:, 0], sharp[:, 1], sharp[:, 2]), values)
     for part, values in _broad_specular_tables(probes, probe_index, rotation, view, roughness,
                                                layout, entries[broad], dtype):
