@@ -7,6 +7,7 @@ from typing import Any
 import click
 
 from render.common.errors import InputError
+from render.torch_renderer import gradient_check
 from render.torch_renderer.check import DEFAULT_ROUGHNESS, CheckConfig, run
 
 
@@ -45,7 +46,7 @@ def main(roughness: str, **options: Any) -> None:
         raise click.BadParameter(f"not a list of numbers: {roughness}", param_hint="--roughness")
     cfg = CheckConfig(roughness=values, **options)
     try:
-        report = run(cfg)
+        report = gradient_check.run(cfg) if cfg.gradients else run(cfg)
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
     if cfg.gradients:
@@ -63,14 +64,13 @@ def main(roughness: str, **options: Any) -> None:
 def _report_gradients(report: dict) -> None:
     """One line per case and parameter (relative L2 error, reference noise, cosine), the
     summary; exit 1 where a case disagrees."""
-    from render.torch_renderer.gradient_check import PARAMETERS
-
     for row in report["rows"]:
         cells = "  ".join(f"{name} {row[name]['error']:.4f}+-{row[name]['noise']:.4f} "
-                          f"cos {row[name]['cosine']:.5f}" for name in PARAMETERS)
+                          f"cos {row[name]['cosine']:.5f}" for name in gradient_check.PARAMETERS)
         click.echo(f"alpha {row['alpha']:<5} {row['material']} / {row['probe']}: {cells}")
     click.echo(json.dumps({k: v for k, v in report.items() if k != "rows"}, indent=2))
-    failed = [name for name in PARAMETERS if not report["summary"][name]["all_agree"]]
+    summary = report["summary"]
+    failed = [name for name in gradient_check.PARAMETERS if not summary[name]["all_agree"]]
     if failed:
         raise click.ClickException(f"gradients disagree beyond the tolerance plus 3x the "
                                    f"reference's noise: {', '.join(failed)}")

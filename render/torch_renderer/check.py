@@ -187,16 +187,10 @@ def compare(probes_dir: str | Path, svbrdfs_dir: str | Path, size: int = 64, spp
 
 
 def run(cfg: CheckConfig) -> dict:
-    """``check-renderer``: ``compare`` (or with ``gradients``, ``compare_gradients``) on the
-    cases of ``cfg``; its report."""
-    from render.torch_renderer.gradient_check import compare_gradients
-
+    """``check-renderer`` without ``gradients``: ``compare`` on the cases of ``cfg``; its
+    report (with ``gradients``: gradient_check.run)."""
     if cfg.out is not None:
         require_output_folder(cfg.out)
-    if cfg.gradients:
-        return compare_gradients(cfg.probes, cfg.svbrdfs, cfg.size, cfg.spp, cfg.passes,
-                                 cfg.roughness, cfg.max_view_angle, cfg.seed, cfg.tolerance,
-                                 cfg.out)
     return compare(cfg.probes, cfg.svbrdfs, cfg.size, cfg.spp, cfg.roughness,
                    cfg.max_view_angle, cfg.seed, cfg.out, threshold=cfg.threshold,
                    confirm_spp=cfg.confirm_spp)

@@ -29,10 +29,12 @@ import torch
 from tqdm import tqdm
 
 from render.common.atomic_files import write_json
+from render.common.errors import require_output_folder
 from render.common.exposure import expose
 from render.common.probes import find_probes, load_probe
 from render.materials.reduced_svbrdf import find_materials, load_material
-from render.torch_renderer.check import DEFAULT_ROUGHNESS, make_cases, square_crop
+from render.torch_renderer.check import (DEFAULT_ROUGHNESS, CheckConfig, make_cases,
+                                         square_crop)
 from render.torch_renderer.renderer import ProbeBank, render
 
 PARAMETERS = ("albedo", "normal", "specular", "roughness")
@@ -127,3 +129,13 @@ def compare_gradients(probes_dir: str | Path, svbrdfs_dir: str | Path, size: int
     if out is not None:
         write_json(Path(out) / "gradients.json", report)
     return report
+
+
+def run(cfg: CheckConfig) -> dict:
+    """``check-renderer --gradients``: ``compare_gradients`` on the cases of ``cfg``; its
+    report."""
+    if cfg.out is not None:
+        require_output_folder(cfg.out)
+    return compare_gradients(cfg.probes, cfg.svbrdfs, cfg.size, cfg.spp, cfg.passes,
+                             cfg.roughness, cfg.max_view_angle, cfg.seed, cfg.tolerance,
+                             cfg.out)
