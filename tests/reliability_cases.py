@@ -265,7 +265,9 @@ CASES = [
         ("--roughness", "outside the Ward range", lambda i, o: with_option(
             check_renderer(i, o), "--roughness", "0.001"), None, "must lie in [0.02, 1"),
         ("--roughness", "not numbers", lambda i, o: with_option(
-            check_renderer(i, o), "--roughness", "rough"), None, "not a list of numbers")]],
+            check_renderer(i, o), "--roughness", "rough"), None, "not a list of numbers"),
+        ("--passes", "one pass (no spread) with --gradients", lambda i, o: check_renderer(
+            i, o) + ["--gradients", "--passes", "1"], None, "1 is not in the range")]],
     *[("sa-train", *case) for case in [
         *_probe_cases(sa_train)[:4], *_materials_cases(sa_train, "--labeled-maps"),
         ("--dataset", "missing folder", lambda i, o: sa_train(i, o) + [

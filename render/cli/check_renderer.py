@@ -23,7 +23,7 @@ from render.torch_renderer.check import DEFAULT_ROUGHNESS, CheckConfig, run
 @click.option("--seed", default=0, show_default=True)
 @click.option("--threshold", default=40.0, show_default=True,
               help="Fail when any case's PSNR (dB) is below this.")
-@click.option("--confirm-spp", default=0, show_default=True,
+@click.option("--confirm-spp", default=0, show_default=True, type=click.IntRange(min=0),
               help="Render the cases below the threshold again at this many samples per pixel "
                    "and judge them against that reference (0: not).")
 @click.option("--out", type=click.Path(), default=None,
@@ -32,7 +32,7 @@ from render.torch_renderer.check import DEFAULT_ROUGHNESS, CheckConfig, run
 @click.option("--gradients", is_flag=True,
               help="Compare gradients with Mitsuba's automatic differentiation instead of "
                    "images (--spp is then per pass).")
-@click.option("--passes", default=8, show_default=True,
+@click.option("--passes", default=8, show_default=True, type=click.IntRange(min=2),
               help="With --gradients: independent Mitsuba estimates per case.")
 @click.option("--tolerance", default=0.02, show_default=True,
               help="With --gradients: fail where a relative L2 error exceeds this plus 3 "
