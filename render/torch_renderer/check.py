@@ -8,6 +8,9 @@ and a random view within ``max_view_angle``. Errors, per case:
 - PSNR (dB) between the two auto-exposed, clamped [0, 1] images (each exposed on its own, as
   the pipeline does), the number the threshold applies to;
 - relative MSE of the HDR images before exposure, sum (t - m)^2 / sum m^2.
+With ``confirm_spp``, a case below the threshold is judged against a second Mitsuba render at
+that sample count instead (so that the reference's own noise cannot fail the check). The
+gradients' comparison is gradient_check.py.
 """
 
 import dataclasses
