@@ -293,21 +293,22 @@ def _lookup(table, coordinates, sizes):
     size = table.shape[-1]
     corner = _cell_corners(coordinates, sizes).to(coordinates.dtype)
     fraction = coordinates - corner
-    fetches = []  # per axis: (position in entries, weight) of the three fetches
+    scale = 2.0 / (size - 1)  # entries to grid_sample's [-1, 1]
+    fetches = []  # per axis: (grid coordinate, weight) of the three fetches
     for axis in (0, 1):
         w0, w1, w2, w3 = _catmull_rom_weights(fraction[..., axis])
         inner = w1 + w2  # at least 1 on [0, 1]
-        c = corner[..., axis]
-        fetches.append(((c - 1, w0), (c + w2 / inner, inner), (c + 2, w3)))
-    scale = 2.0 / (size - 1)
-    result = 0
+        at = corner[..., axis] * scale - 1
+        fetches.append(((at - scale, w0), (at + (w2 / inner) * scale, inner),
+                        (at + 2 * scale, w3)))
+    result = None
     for y, wy in fetches[1]:
         for x, wx in fetches[0]:
-            grid = torch.stack([x, y], -1) * scale - 1
-            value = torch.nn.functional.grid_sample(table, grid, mode="bilinear",
-                                                    align_corners=True)
-            result = result + value * (wx * wy)[:, None]
-    return result.clamp(min=0)
+            value = torch.nn.functional.grid_sample(table, torch.stack([x, y], -1),
+                                                    mode="bilinear", align_corners=True)
+            weight = (wx * wy).unsqueeze(1)
+            result = value.mul_(weight) if result is None else result.addcmul_(value, weight)
+    return result.clamp_(min=0)
 
 
 def _diffuse_tables(probes, probe_index, rotation, layout, dtype):
