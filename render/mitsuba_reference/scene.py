@@ -196,6 +196,5 @@ class PlanarSampleRenderer:
                     roughness=float(grads["roughness"].reshape(-1)[0]))
 
 
-
 def _strip_seed(seed: int, index: int) -> int:
     return (seed * 1_000_003 + index) % (1 << 32)

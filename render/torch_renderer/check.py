@@ -113,6 +113,28 @@ def square_crop(svbrdf: ReducedSVBRDF, size: int) -> tuple[np.ndarray, np.ndarra
     return svbrdf.albedo[window], svbrdf.normal[window]
 
 
+def load_cases(probes_dir: str | Path, svbrdfs_dir: str | Path, size: int,
+               roughness: Sequence[float], max_view_angle: float, seed: int
+               ) -> tuple[list[Probe], list[ReducedSVBRDF],
+                          list[tuple[np.ndarray, np.ndarray]], list[Case]]:
+    """The probes, the materials, their (albedo, normal) maps cut to ``size`` (square_crop)
+    and the cases (make_cases) of a check."""
+    probes = [load_probe(p) for p in find_probes(probes_dir)]
+    materials = [load_material(m) for m in find_materials(svbrdfs_dir)]
+    maps = [square_crop(m, size) for m in materials]
+    return probes, materials, maps, make_cases(materials, probes, list(roughness),
+                                               max_view_angle, seed)
+
+
+def case_svbrdf(materials: list[ReducedSVBRDF], maps: list[tuple[np.ndarray, np.ndarray]],
+                case: Case) -> ReducedSVBRDF:
+    """The material of ``case`` with its cut maps and the case's specular albedo and
+    roughness."""
+    albedo, normal = maps[case.material]
+    return dataclasses.replace(materials[case.material], albedo=albedo, normal=normal,
+                               specular=case.specular, roughness=case.roughness)
+
+
 def render_torch(cases: list[Case], bank: ProbeBank,
                  maps: list[tuple[np.ndarray, np.ndarray]], batch_size: int) -> np.ndarray:
     """Torch renders of all cases, (N, H, W, 3) float32, in batches."""
@@ -140,10 +162,8 @@ def compare(probes_dir: str | Path, svbrdfs_dir: str | Path, size: int = 64, spp
     ``confirm_spp`` instead (each row's ``reference_spp`` says which)."""
     from render.mitsuba_reference.scene import PlanarSampleRenderer  # Mitsuba is needed here only
 
-    probes = [load_probe(p) for p in find_probes(probes_dir)]
-    materials = [load_material(m) for m in find_materials(svbrdfs_dir)]
-    maps = [square_crop(m, size) for m in materials]
-    cases = make_cases(materials, probes, list(roughness), max_view_angle, seed)
+    probes, materials, maps, cases = load_cases(probes_dir, svbrdfs_dir, size, roughness,
+                                                max_view_angle, seed)
     bank = ProbeBank([p.radiance for p in probes])
 
     started = time.perf_counter()
@@ -153,31 +173,29 @@ def compare(probes_dir: str | Path, svbrdfs_dir: str | Path, size: int = 64, spp
     mitsuba = PlanarSampleRenderer(spp=spp)
     rows, mitsuba_seconds = [], 0.0
     for index, case in enumerate(tqdm(cases, desc="mitsuba", disable=not progress)):
-        material = materials[case.material]
-        svbrdf = dataclasses.replace(material, albedo=maps[case.material][0],
-                                     normal=maps[case.material][1], specular=case.specular,
-                                     roughness=case.roughness)
+        svbrdf = case_svbrdf(materials, maps, case)
         started = time.perf_counter()
         reference = mitsuba.render(svbrdf, probes[case.probe], case.rotation_deg, case.view,
                                    seed=index)
         mitsuba_seconds += time.perf_counter() - started
         ours = torch_images[index]
         exposed_ref, exposed_ours = expose_numpy(reference)[0], expose_numpy(ours)[0]
-        reference_spp = spp
-        if confirm_spp and psnr(exposed_ours, exposed_ref) < threshold:
+        reference_spp, score = spp, psnr(exposed_ours, exposed_ref)
+        if confirm_spp and score < threshold:
             reference = mitsuba.render(svbrdf, probes[case.probe], case.rotation_deg,
                                        case.view, seed=index, spp=confirm_spp)
             exposed_ref, reference_spp = expose_numpy(reference)[0], confirm_spp
-        row = dict(material=material.name, probe=probes[case.probe].name,
+            score = psnr(exposed_ours, exposed_ref)
+        row = dict(material=svbrdf.name, probe=probes[case.probe].name,
                    roughness=case.roughness, specular=[float(v) for v in case.specular],
                    rotation_deg=round(case.rotation_deg, 3),
                    view=[round(float(v), 6) for v in case.view], reference_spp=reference_spp,
-                   psnr_db=round(psnr(exposed_ours, exposed_ref), 3),
+                   psnr_db=round(score, 3),
                    relative_mse=float(np.sum((ours - reference) ** 2) / np.sum(reference ** 2)))
         rows.append(row)
         if out is not None:
             difference = np.clip(np.abs(exposed_ours - exposed_ref) * 10, 0, 1)
-            write_png(Path(out) / f"{index:04d}_{material.name}_{row['probe']}.png",
+            write_png(Path(out) / f"{index:04d}_{svbrdf.name}_{row['probe']}.png",
                       np.concatenate([exposed_ref, exposed_ours, difference], axis=1))
     worst = min(rows, key=lambda r: r["psnr_db"])
     report = dict(size=size, spp=spp, cases=len(rows), worst=worst,

@@ -19,7 +19,6 @@ Per case and parameter (t: torch's gradient, m: Mitsuba's mean, both flattened):
 - ``agrees``: error <= tolerance + 3 noise.
 """
 
-import dataclasses
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -31,10 +30,8 @@ from tqdm import tqdm
 from render.common.atomic_files import write_json
 from render.common.errors import require_output_folder
 from render.common.exposure import expose
-from render.common.probes import find_probes, load_probe
-from render.materials.reduced_svbrdf import find_materials, load_material
-from render.torch_renderer.check import (DEFAULT_ROUGHNESS, CheckConfig, make_cases,
-                                         square_crop)
+from render.torch_renderer.check import (DEFAULT_ROUGHNESS, CheckConfig, case_svbrdf,
+                                         load_cases)
 from render.torch_renderer.renderer import ProbeBank, render
 
 PARAMETERS = ("albedo", "normal", "specular", "roughness")
@@ -95,26 +92,22 @@ def compare_gradients(probes_dir: str | Path, svbrdfs_dir: str | Path, size: int
     parameter the worst error and whether every case agrees."""
     from render.mitsuba_reference.scene import PlanarSampleRenderer  # Mitsuba is needed here only
 
-    probes = [load_probe(p) for p in find_probes(probes_dir)]
-    materials = [load_material(m) for m in find_materials(svbrdfs_dir)]
-    maps = [square_crop(m, size) for m in materials]
-    cases = make_cases(materials, probes, list(roughness), max_view_angle, seed)
+    probes, materials, maps, cases = load_cases(probes_dir, svbrdfs_dir, size, roughness,
+                                                max_view_angle, seed)
     bank = ProbeBank([p.radiance for p in probes], dtype=torch.float64)
     mitsuba = PlanarSampleRenderer(spp=spp)
     rows = []
     started = time.perf_counter()
     for index, case in enumerate(tqdm(cases, desc="gradients", disable=not progress)):
-        albedo, normal = maps[case.material]
-        svbrdf = dataclasses.replace(materials[case.material], albedo=albedo, normal=normal,
-                                     specular=case.specular, roughness=case.roughness)
+        svbrdf = case_svbrdf(materials, maps, case)
         probe = probes[case.probe]
         reference = mitsuba.render(svbrdf, probe, case.rotation_deg, case.view, seed=index)
         cotangent = image_cotangent(reference, seed=index)
         estimates = [mitsuba.gradients(svbrdf, probe, case.rotation_deg, case.view, cotangent,
                                        seed=(index + 1) * 1000 + k) for k in range(passes)]
-        ours = torch_gradients(albedo, normal, case.specular, case.roughness, bank, case.probe,
-                               case.rotation_deg, case.view, cotangent)
-        row = dict(material=materials[case.material].name, probe=probe.name,
+        ours = torch_gradients(svbrdf.albedo, svbrdf.normal, case.specular, case.roughness,
+                               bank, case.probe, case.rotation_deg, case.view, cotangent)
+        row = dict(material=svbrdf.name, probe=probe.name,
                    alpha=case.roughness, view=[round(float(v), 6) for v in case.view])
         for name in PARAMETERS:
             row[name] = agreement(ours[name], [e[name] for e in estimates], tolerance)

@@ -223,7 +223,7 @@ class _Layout:
             outward = torch.tan(torch.clamp(theta + reach, max=math.pi / 2) / 2) - outer
             inward = outer - torch.tan(torch.clamp(theta - reach, min=-math.pi / 2) / 2)
             radius = torch.minimum(torch.maximum(outward, inward), 1 + outer)
-            spacing = math.pi / (probe_height - 1)  # the probe's angular sample spacing
+            spacing = node_spacing(probe_height)
             lobe = 2 * sigma  # angular std of the reflected direction
             factor = torch.exp2(torch.ceil(torch.log2(NODES_PER_SIGMA * spacing / lobe)))
         self.step = step
@@ -242,11 +242,16 @@ class _Layout:
         self.refinement = factor.clamp(1, MAX_REFINEMENT).long()  # (B,)
 
 
+def node_spacing(probe_height: int) -> float:
+    """The angular spacing (radians) of a probe's samples, rows from zenith to nadir."""
+    return math.pi / (probe_height - 1)
+
+
 def block_size(angle: float | torch.Tensor, probe_height: int) -> torch.Tensor:
     """Nodes per side of the probe blocks at most ``angle`` radians wide: a power of two."""
-    spacing = math.pi / (probe_height - 1)
     angle = torch.as_tensor(angle, dtype=torch.float64)
-    return torch.exp2(torch.floor(torch.log2(angle / spacing)).clamp(0, 5)).long()
+    log2_nodes = torch.floor(torch.log2(angle / node_spacing(probe_height))).clamp(0, 5)
+    return torch.exp2(log2_nodes).long()
 
 
 def _lattice_directions(origin, step, first, size):
@@ -363,7 +368,7 @@ def _specular_tables(lattice_energy, view, roughness, layout, entries, probe_hei
     """S at the table entries given as (E, 3) rows (sample, y, x): (E, 3)."""
     radius, size = layout.radius, layout.lattice
     step, origin = layout.step.to(dtype), layout.origin.to(dtype)
-    node_spacings = math.pi / (probe_height - 1) / layout.refinement.to(dtype)  # (B,) radians
+    node_spacings = node_spacing(probe_height) / layout.refinement.to(dtype)  # (B,)
     # Every lattice vertex's half vector h, h.v and energy, gathered per stencil: (B G G, 7).
     h = _lattice_directions(origin, step, -radius, size)
     h_dot_v = (h * view[:, None, None, :]).sum(-1, keepdim=True)
@@ -383,10 +388,9 @@ def _specular_tables(lattice_energy, view, roughness, layout, entries, probe_hei
         cos_h = (h @ normal[:, :, None]).squeeze(-1)
         cos_o = (normal * view[b]).sum(-1, keepdim=True)
         cos_i = 2 * h_dot_v.squeeze(-1) * cos_h - cos_o
-        p2 = (normal[:, :2] ** 2).sum(-1) / (1 + normal[:, 2]) ** 2
+        p2 = (stereographic(normal) ** 2).sum(-1)
         lattice_spacing = 2 * step[b] / (1 + p2)  # radians, at the entry's normal
-        node_spacing = node_spacings[b]
-        alpha = _blur_compensated_roughness(roughness[b], node_spacing ** 2 / 6,
+        alpha = _blur_compensated_roughness(roughness[b], node_spacings[b] ** 2 / 6,
                                             lattice_spacing ** 2 / 6)
         weight = _ward_lobe(cos_h, cos_i, alpha[:, None])
         results.append((weight[:, None, :] @ energy).squeeze(1))
@@ -433,15 +437,15 @@ def _broad_specular_tables(probes, probe_index, rotation, view, roughness, layou
             rotate_z(directions[probe, None].to(dtype), rotation[sample, None])[0], dim=-1)
         v = view[sample]
         half = torch.nn.functional.normalize(light + v, dim=-1)  # (D, 3)
+        nodes = int(layout.block[sample])
+        alpha = _blur_compensated_roughness(
+            roughness[sample], (nodes * nodes + 1) * node_spacing(probes.height) ** 2 / 12)
         rows = entries[entries[:, 0] == sample]
         chunk = max(1, ENTRY_CHUNK_LANES // directions.shape[1])
         for start in range(0, len(rows), chunk):
             part = rows[start:start + chunk]
             b, y, x = part.unbind(1)
             normal = _entry_normals(layout, b, y, x, dtype)  # (E', 3)
-            nodes, spacing = int(layout.block[sample]), math.pi / (probes.height - 1)
-            alpha = _blur_compensated_roughness(roughness[sample],
-                                                (nodes * nodes + 1) * spacing ** 2 / 12)
             weight = _ward_lobe(normal @ half.T, normal @ light.T, alpha)
             yield part, weight @ energy[probe].to(dtype)
 
