@@ -1,0 +1,361 @@
+"""The release: every shipped SVBRDF-net file and the model card's tables, rebuilt by one
+command from the repository and ``../shared/data`` (issue 50, "one reproducible release").
+
+    .venv/bin/python scripts/release.py --out WORK [--size full|toy] [--train-minutes M] \
+        [--device cpu|cuda] [--parallel N] [--shared SHARED_DATA]
+
+RECIPE names the networks: the procedural sets each trains on (make-materials classes and
+seeds), whether it trains on real sets too, and its sa-train options; every run is one
+sa-train call from scratch, labeled minibatches rendered on the fly under TRAINING_PROBES (the
+shared probes less the 8 held out). The real sets are split by scripts/real_validation.py: a
+network that trains on real sets is trained once per validation fold, on the real sets of the
+other three folds (the fold's file is validated on that fold), and once on the sets of all four
+(the file released, which the test measures); a network without real sets is trained once and
+validated on every fold. No run sees a test set or a held-out probe.
+
+Into WORK, each step kept where done, so that the same command continues a cut-off release:
+
+    sets/<class>-<seed>/          make-materials sets
+    maps/<network>-<fold>/        links to the material folders of one run
+    runs/<network>-<fold>/        sa-train runs (each resumes from its newest checkpoint)
+    files/<fold>/svbrdf-<network>.safetensors   each run's newest checkpoint, exported (fold
+                                  "all": the released files)
+    validation/, test/            scripts/real_validation.py evaluations and tables (an
+                                  evaluation of an older export is made again)
+    card.md, release.json         the card's tables: each run's steps and minutes, the
+                                  validation per fold and network, the test
+
+Time: the runs share ``--train-minutes``. Each is given the share of the minutes left that its
+steps left are of all runs' steps left (times ``--parallel``, the runs trained at once), and
+stopped when that is spent; its newest checkpoint is then exported and card.md says how many of
+its steps it reached. A later call continues the runs towards their steps. ``--size toy`` is the
+same pipeline on a few small sets, a small network and a few photos (minutes on a CPU; the
+tests run it); ``full`` is the release.
+
+The released files are not copied into models/: the shipped files change when a release's
+validation says they should (models/README.md).
+"""
+
+import dataclasses
+import json
+import math
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import click
+import torch
+
+from render.common.atomic_files import atomic_path, write_json
+from render.common.errors import InputError
+from render.common.resume import file_digest
+from train.estimation.network_choice import FixedNetwork
+from train.networks.checkpoints import NAME, checkpoint_files
+from train.networks.model_files import FORMAT, load_network, model_metadata, save_model
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from real_validation import (  # noqa: E402
+    FOLDS,
+    SHARED,
+    TEST_PROBES,
+    VALIDATION_PROBES,
+    evaluate_choice,
+    linked_folder,
+    summarize,
+)
+
+BIN = Path(sys.executable).parent
+"""The environment's commands (make-materials, sa-train)."""
+
+
+@dataclass(frozen=True)
+class Network:
+    """One released file, svbrdf-<name>.safetensors."""
+
+    name: str
+    classes: tuple[str, ...]
+    """make-materials classes of its procedural sets."""
+    seeds: tuple[int, ...]
+    """make-materials seeds of each class (seed 1 makes the procedural test's sets)."""
+    real_sets: bool
+    """It trains on the real sets of the training folds too."""
+    steps: int
+    """Optimizer steps at size full."""
+    options: tuple[str, ...] = ()
+    """sa-train options beyond the common ones (Size, train_command)."""
+
+
+RECIPE = (
+    Network("wood", ("wood",), (0, 2, 3, 4, 5, 6, 7, 8), False, 4600, ("--own-specular",)),
+    Network("plastic", ("plastic",), (0, 2, 3, 4, 5, 6, 7, 8), False, 4600,
+            ("--mix-specular", "--albedo-network", "photo-affine", "--relit-loss-weight", "300")),
+    Network("metal", ("metal",), (0, 2, 3, 4, 5, 6, 7, 8), False, 3200,
+            ("--own-specular", "--relit-loss-weight", "300")),
+    Network("general", ("wood", "plastic", "metal"), (0, 2, 3), True, 4600,
+            ("--mix-specular", "--relit-loss-weight", "300")),
+)
+"""The networks of a release and how each is trained."""
+
+
+@dataclass(frozen=True)
+class Size:
+    sets_per_seed: int
+    """make-materials sets of each class and seed."""
+    resolution: int
+    """Side (px) of the procedural maps."""
+    network: str
+    """sa-train --network preset."""
+    steps: int | None
+    """Optimizer steps of every run (None: each network's own)."""
+    epoch_samples: int
+    batch_size: int
+    render_size: int
+    """sa-train --render-size."""
+    checkpoint_every: int
+    photos: int
+    """Validation (and test) photos per fold and network."""
+    relights: int
+
+
+SIZES = {"full": Size(50, 512, "compact", None, 3200, 16, 512, 100, 60, 3),
+         "toy": Size(1, 64, "small", 4, 16, 4, 128, 2, 2, 1)}
+
+
+def training_probes(shared: Path) -> list[str]:
+    """Names of the shared probes no validation or test photo is lit or relit by."""
+    held_out = set(VALIDATION_PROBES) | set(TEST_PROBES)
+    return sorted(p.stem for p in (shared / "probes").glob("*.exr") if p.stem not in held_out)
+
+
+def run_folds(network: Network) -> tuple[str, ...]:
+    """The runs of ``network``: one per validation fold and "all" when it trains on real sets,
+    else "all" alone."""
+    return (*FOLDS, "all") if network.real_sets else ("all",)
+
+
+def real_training_sets(fold: str) -> list[str]:
+    """The real sets a run for ``fold`` trains on: the validation folds' sets but its own."""
+    return [name for other, names in FOLDS.items() if other != fold for name in names]
+
+
+def total_steps(network: Network, size: Size) -> int:
+    """Optimizer steps of a run: whole epochs of ``size.epoch_samples``."""
+    steps = size.steps or network.steps
+    per_epoch = size.epoch_samples // size.batch_size
+    return math.ceil(steps / per_epoch) * per_epoch
+
+
+def steps_reached(run: Path) -> int:
+    """Optimizer steps of ``run``'s newest checkpoint (0 without one)."""
+    newest = checkpoint_files(run / "checkpoints")
+    return int(NAME.match(newest[-1].name).group(1)) if newest else 0
+
+
+def make_sets(work: Path, size: Size, parallel: int) -> None:
+    """make-materials every class and seed of RECIPE into work/sets (kept sets are skipped)."""
+    jobs = sorted({(c, s) for network in RECIPE for c in network.classes for s in network.seeds})
+
+    def make(job):
+        material_class, seed = job
+        subprocess.run([str(BIN / "make-materials"), "--class", material_class,
+                        "--count", str(size.sets_per_seed), "--seed", str(seed),
+                        "--resolution", str(size.resolution),
+                        "--out", str(work / "sets" / f"{material_class}-{seed}")],
+                       check=True, stdout=subprocess.DEVNULL)
+
+    with ThreadPoolExecutor(max(1, parallel)) as pool:
+        list(pool.map(make, jobs))
+
+
+def run_maps(work: Path, network: Network, fold: str, shared: Path) -> Path:
+    """work/maps/<network>-<fold>: links to the material folders the run trains on."""
+    folder = work / "maps" / f"{network.name}-{fold}"
+    for material_class in network.classes:
+        for seed in network.seeds:
+            sets = work / "sets" / f"{material_class}-{seed}"
+            linked_folder(folder, [p.name for p in sorted(sets.iterdir()) if p.is_dir()], sets)
+    if network.real_sets:
+        linked_folder(folder, real_training_sets(fold), shared / "svbrdfs")
+    return folder
+
+
+def train_command(work: Path, network: Network, fold: str, size: Size, device: str) -> list[str]:
+    """The sa-train call of one run."""
+    epochs = total_steps(network, size) * size.batch_size // size.epoch_samples
+    return [str(BIN / "sa-train"),
+            "--labeled-maps", str(work / "maps" / f"{network.name}-{fold}"),
+            "--probes", str(work / "probes-training"),
+            "--out", str(run_folder(work, network, fold)),
+            "--network", size.network, "--render-size", str(size.render_size),
+            "--labeled-epochs", str(epochs), "--self-augmented-epochs", "0",
+            "--epoch-samples", str(size.epoch_samples), "--batch-size", str(size.batch_size),
+            "--learning-rate", "0.002", "--lr-gamma", "1e-3",
+            "--checkpoint-every", str(size.checkpoint_every), "--log-every", "50",
+            "--device", device, *network.options]
+
+
+def run_folder(work: Path, network: Network, fold: str) -> Path:
+    return work / "runs" / f"{network.name}-{fold}"
+
+
+def train_runs(work: Path, size: Size, device: str, minutes: float, parallel: int,
+               shared: Path) -> dict[str, dict]:
+    """Train (or continue) every run within ``minutes``; returns {run: steps, seconds}."""
+    runs = [(network, fold) for network in RECIPE for fold in run_folds(network)]
+    for network, fold in runs:
+        run_maps(work, network, fold, shared)
+    deadline = time.monotonic() + 60.0 * minutes
+    threads = str(max(1, (os.cpu_count() or 1) // max(1, parallel)))
+    record = {}
+
+    def steps_left(run):
+        network, fold = run
+        return max(0, total_steps(network, size) - steps_reached(run_folder(work, *run)))
+
+    def train(run):
+        network, fold = run
+        name = f"{network.name}-{fold}"
+        left_now = sum(steps_left(r) for r in runs)
+        allowance = (deadline - time.monotonic()) * parallel * steps_left(run) / max(1, left_now)
+        allowance = min(allowance, deadline - time.monotonic())
+        start = time.monotonic()
+        run_folder(work, *run).parent.mkdir(parents=True, exist_ok=True)
+        if steps_left(run) and allowance > 0:
+            log = run_folder(work, *run).with_suffix(".log")
+            with open(log, "a") as output:
+                process = subprocess.Popen(train_command(work, network, fold, size, device),
+                                           stdout=output, stderr=subprocess.STDOUT,
+                                           env=os.environ | {"OMP_NUM_THREADS": threads})
+                try:
+                    if process.wait(timeout=allowance):
+                        raise InputError(log, f"sa-train failed (exit status {process.returncode})")
+                except subprocess.TimeoutExpired:
+                    process.terminate()  # checkpoints are written whole: the newest is kept
+                    process.wait()
+        timing = run_folder(work, *run).with_suffix(".seconds")
+        seconds = (float(timing.read_text()) if timing.is_file() else 0.0) + (
+            time.monotonic() - start)
+        with atomic_path(timing) as tmp:
+            tmp.write_text(f"{seconds:.1f}")
+        record[name] = {"steps": steps_reached(run_folder(work, *run)),
+                        "of_steps": total_steps(network, size), "seconds": round(seconds, 1)}
+        click.echo(json.dumps({"run": name, **record[name]}))
+
+    with ThreadPoolExecutor(max(1, parallel)) as pool:
+        list(pool.map(train, runs))
+    return record
+
+
+def export(work: Path, network: Network, fold: str, size_name: str, command: str) -> Path:
+    """files/<fold>/svbrdf-<network>.safetensors from the run's newest checkpoint (written
+    again only when the run has a newer one)."""
+    path = work / "files" / fold / f"svbrdf-{network.name}.safetensors"
+    newest = checkpoint_files(run_folder(work, network, fold) / "checkpoints")
+    if not newest:
+        raise InputError(run_folder(work, network, fold), "no checkpoint to export: give the "
+                                                          "training more minutes")
+    if path.is_file() and model_metadata(path, FORMAT, "model").get(
+            "trained_from") == newest[-1].name:
+        return path
+    net = load_network(newest[-1])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    save_model(net, path, {
+        "class": network.name, "trained_from": newest[-1].name,
+        "command": command,
+        "recipe": json.dumps(dataclasses.asdict(network)),
+        "real_sets": json.dumps(real_training_sets(fold) if network.real_sets else []),
+        "steps": f"{steps_reached(run_folder(work, network, fold))} of "
+                 f"{total_steps(network, SIZES[size_name])}"})
+    return path
+
+
+def validation_file(work: Path, network: Network, fold: str) -> Path:
+    """The file that ``network`` is measured with on ``fold`` (a validation fold or "test")."""
+    own = fold in FOLDS and network.real_sets
+    return work / "files" / (fold if own else "all") / f"svbrdf-{network.name}.safetensors"
+
+
+def evaluate(work: Path, split: str, size: Size, shared: Path) -> dict:
+    """scripts/real_validation.py's evaluation of every network on ``split``, into
+    work/<split>; an evaluation of another file than the current export is made again."""
+    out = work / split
+    for network in RECIPE:
+        for fold in (FOLDS if split == "validation" else ("test",)):
+            config = out / fold / network.name / "config.json"
+            if config.is_file():
+                models = json.loads(config.read_text()).get("models", {})
+                if file_digest(validation_file(work, network, fold)) not in models.values():
+                    shutil.rmtree(config.parent)
+        evaluate_choice(out, split, network.name,
+                        lambda fold, n=network: FixedNetwork(load_network(
+                            validation_file(work, n, fold))),
+                        size.photos, size.relights, excluded=(), shared=shared)
+    folds = list(FOLDS) if split == "validation" else ["test"]
+    return summarize(out, folds, [network.name for network in RECIPE])
+
+
+def write_card(work: Path, command: str, record: dict, tables: dict) -> None:
+    """card.md and release.json: the machine, the runs, the validation and the test."""
+    lines = [f"Made by `{command}` on {machine()}.", "", "| run | steps | minutes |",
+             "| --- | --- | --- |"]
+    lines += [f"| {name} | {row['steps']} of {row['of_steps']} | {row['seconds'] / 60:.1f} |"
+              for name, row in record.items()]
+    for split in ("validation", "test"):
+        lines += ["", f"**{split}** (relit and albedo RMSE over the naive baseline's)", "",
+                  (work / split / "table.md").read_text()]
+    with atomic_path(work / "card.md") as tmp:
+        tmp.write_text("\n".join(lines) + "\n")
+    write_json(work / "release.json", {"command": command, "machine": machine(),
+                                       "runs": record, **tables})
+
+
+def machine() -> str:
+    """The machine in words: CPU cores and, where torch sees one, the GPU."""
+    words = f"{os.cpu_count()} CPU cores ({platform.machine()})"
+    if torch.cuda.is_available():
+        words += f", {torch.cuda.get_device_name(0)}"
+    return words
+
+
+@click.command()
+@click.option("--out", required=True, type=click.Path(), help="Work folder (resumable).")
+@click.option("--size", "size_name", type=click.Choice(sorted(SIZES)), default="full",
+              show_default=True)
+@click.option("--train-minutes", default=480.0, show_default=True,
+              help="Minutes the training runs share.")
+@click.option("--device", default="cpu", show_default=True, help="torch device of the runs.")
+@click.option("--parallel", default=1, show_default=True, type=click.IntRange(min=1),
+              help="Runs trained at once (one per GPU share or core group).")
+@click.option("--shared", default=str(SHARED), show_default=True, type=click.Path(),
+              help="The shared data folder (svbrdfs/, probes/).")
+def main(out, size_name, train_minutes, device, parallel, shared):
+    work, shared, size = Path(out), Path(shared), SIZES[size_name]
+    command = (f"scripts/release.py --size {size_name} --train-minutes {train_minutes:g} "
+               f"--device {device} --parallel {parallel}")
+    try:
+        for folder in ("svbrdfs", "probes"):
+            if not (shared / folder).is_dir():
+                raise InputError(shared / folder, "not found (the shared data folder is needed)")
+        work.mkdir(parents=True, exist_ok=True)
+        linked_folder(work / "probes-training",
+                      [f"{name}.exr" for name in training_probes(shared)], shared / "probes")
+        make_sets(work, size, parallel)
+        record = train_runs(work, size, device, train_minutes, parallel, shared)
+        for network in RECIPE:
+            for fold in run_folds(network):
+                export(work, network, fold, size_name, command)
+        tables = {split: evaluate(work, split, size, shared) for split in ("validation", "test")}
+        write_card(work, command, record, tables)
+    except InputError as error:
+        raise click.ClickException(str(error)) from None
+    click.echo((work / "card.md").read_text())
+
+
+if __name__ == "__main__":
+    main()
