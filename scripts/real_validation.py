@@ -9,10 +9,10 @@ and relight the validation photos, TEST_PROBES the test photos; no network is tr
 either.
 
 For each fold and each network choice (``--choices``: the shipped networks by class) it runs
-sa-evaluate (train.evaluation.estimate_evaluation) on ``--samples`` photos rendered by the torch
-renderer from the fold's sets, under the fold's probes: the same photos for every choice, each with the
-naive baseline's errors beside the model's. Sets a model was trained on (``--exclude``) are
-left out of every fold. Writes into ``--out``:
+sa-evaluate (train.evaluation.estimate_evaluation) on ``--samples`` photos rendered by the
+torch renderer from the fold's sets, under the fold's probes: the same photos for every choice,
+each with the naive baseline's errors beside the model's. Sets a model was trained on
+(``--exclude``) are left out of every fold. Writes into ``--out``:
 
     <fold>/<choice>/results.json, figure.png   sa-evaluate's own output (kept: a re-run
                                                continues where it stopped)
@@ -157,12 +157,14 @@ def split_folds(split: str) -> dict[str, tuple[str, ...]]:
 
 def evaluate_choice(out: Path, split: str, name: str, make_choice, samples: int = 60,
                     relights: int = 3, excluded=SHIPPED_TRAINING_SETS,
-                    shared: Path = SHARED) -> None:
+                    shared: Path = SHARED, only: tuple[str, ...] | None = None) -> None:
     """sa-evaluate the network choice ``make_choice(fold)`` gives (train.estimation.
-    network_choice) on every fold of ``split`` whose ``out/<fold>/<name>/results.json`` is
-    missing: photos of the fold's sets less ``excluded``, under the split's probes (the same
-    photos for every choice). Experiments (experiments/) measure their variants with it."""
-    folds = split_folds(split)
+    network_choice) on every fold of ``split`` (or those named in ``only``) whose
+    ``out/<fold>/<name>/results.json`` is missing: photos of the fold's sets less ``excluded``,
+    under the split's probes (the same photos for every choice). Experiments (experiments/)
+    measure their variants with it."""
+    folds = {fold: names for fold, names in split_folds(split).items()
+             if only is None or fold in only}
     probes = linked_folder(out / f"probes-{split}",
                            [f"{probe}.exr" for probe in (VALIDATION_PROBES if split == "validation"
                                                          else TEST_PROBES)], shared / "probes")
