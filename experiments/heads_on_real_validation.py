@@ -15,13 +15,18 @@ import sys
 from pathlib import Path
 
 import click
-from safetensors import safe_open
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 from real_validation import evaluate_choice, report_beside_shipped  # noqa: E402
 
 from train.estimation.network_choice import network_choice  # noqa: E402
-from train.networks.model_files import load_network, save_model, shipped_model_path  # noqa: E402
+from train.networks.model_files import (  # noqa: E402
+    FORMAT,
+    load_network,
+    model_metadata,
+    save_model,
+    shipped_model_path,
+)
 from train.networks.svbrdf_net import SVBRDFNet  # noqa: E402
 
 PARTS = {"joint": ("joint_reading", "joint."), "correction": ("albedo_correction", "correction.")}
@@ -37,8 +42,7 @@ def without_parts(material_class: str, parts: list[str], path: Path) -> None:
     state = {name: value for name, value in net.state_dict().items()
              if not name.startswith(tuple(PARTS[p][1] for p in parts))}
     kept.load_state_dict(state)
-    with safe_open(str(shipped), framework="pt") as file:
-        metadata = dict(file.metadata())
+    metadata = model_metadata(shipped, FORMAT, "model")
     metadata["recipe"] = f"{metadata['recipe']}; then without {' and '.join(parts)}"
     save_model(kept, path, metadata)
 

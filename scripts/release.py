@@ -67,6 +67,7 @@ from real_validation import (  # noqa: E402
     VALIDATION_PROBES,
     evaluate_choice,
     linked_folder,
+    split_folds,
     summarize,
 )
 
@@ -151,10 +152,15 @@ def total_steps(network: Network, size: Size) -> int:
     return math.ceil(steps / per_epoch) * per_epoch
 
 
+def checkpoint_step(checkpoint: Path) -> int:
+    """Optimizer steps a checkpoint file holds, read from its name."""
+    return int(NAME.match(checkpoint.name).group(1))
+
+
 def steps_reached(run: Path) -> int:
     """Optimizer steps of ``run``'s newest checkpoint (0 without one)."""
     newest = checkpoint_files(run / "checkpoints")
-    return int(NAME.match(newest[-1].name).group(1)) if newest else 0
+    return checkpoint_step(newest[-1]) if newest else 0
 
 
 def make_sets(work: Path, size: Size, parallel: int) -> None:
@@ -270,8 +276,7 @@ def export(work: Path, network: Network, fold: str, size_name: str, command: str
         "command": command,
         "recipe": json.dumps(dataclasses.asdict(network)),
         "real_sets": json.dumps(real_training_sets(fold) if network.real_sets else []),
-        "steps": f"{steps_reached(run_folder(work, network, fold))} of "
-                 f"{total_steps(network, SIZES[size_name])}"})
+        "steps": f"{checkpoint_step(newest[-1])} of {total_steps(network, SIZES[size_name])}"})
     return path
 
 
@@ -284,9 +289,9 @@ def validation_file(work: Path, network: Network, fold: str) -> Path:
 def evaluate(work: Path, split: str, size: Size, shared: Path) -> dict:
     """scripts/real_validation.py's evaluation of every network on ``split``, into
     work/<split>; an evaluation of another file than the current export is made again."""
-    out = work / split
+    out, folds = work / split, list(split_folds(split))
     for network in RECIPE:
-        for fold in (FOLDS if split == "validation" else ("test",)):
+        for fold in folds:
             config = out / fold / network.name / "config.json"
             if config.is_file():
                 models = json.loads(config.read_text()).get("models", {})
@@ -296,7 +301,6 @@ def evaluate(work: Path, split: str, size: Size, shared: Path) -> dict:
                         lambda fold, n=network: FixedNetwork(load_network(
                             validation_file(work, n, fold))),
                         size.photos, size.relights, excluded=(), shared=shared)
-    folds = list(FOLDS) if split == "validation" else ["test"]
     return summarize(out, folds, [network.name for network in RECIPE])
 
 
