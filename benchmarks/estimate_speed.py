@@ -1,8 +1,7 @@
 """Benchmark of SVBRDF-net inference: milliseconds per photo (network forward pass only, batch
-of one, after warm-up) for the paper's, the compact (shipped models; with a U-Net or a
-photo-affine albedo network, its joint reading head and its albedo correction, then with view
-averaging too, as the plastic model has; the U-Net with a joint reading head, as the wood model
-has) and the small configuration. Prints JSON.
+of one, after warm-up) for the paper's, the compact (the shipped models: with a U-Net albedo
+network, as wood, metal and general have, or a photo-affine one, as plastic has) and the small
+configuration. Prints JSON.
 
     python benchmarks/estimate_speed.py [--device cpu|cuda] [--repeats 10]
 """
@@ -38,16 +37,9 @@ def milliseconds(run, photo, repeats, device):
 @click.option("--repeats", default=10, show_default=True)
 def main(device, repeats):
     results = {}
-    map_joint = dataclasses.replace(COMPACT_CONFIG, joint_reading=True)
     photo_affine = dataclasses.replace(COMPACT_CONFIG, albedo_network="photo-affine")
-    joint = dataclasses.replace(photo_affine, joint_reading=True)
-    corrected = dataclasses.replace(joint, albedo_correction=True)
     for name, config in (("paper", NetworkConfig()), ("compact", COMPACT_CONFIG),
-                         ("compact, joint reading", map_joint),
                          ("compact, photo-affine albedo", photo_affine),
-                         ("compact, photo-affine albedo, joint reading", joint),
-                         ("compact, photo-affine albedo, joint reading, albedo correction",
-                          corrected),
                          ("small", SMALL_CPU_CONFIG)):
         net = SVBRDFNet(config).to(device).eval()
         photo = torch.rand(1, 3, config.input_size, config.input_size, device=device)

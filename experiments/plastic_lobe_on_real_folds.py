@@ -8,8 +8,10 @@ validation fold of scripts/real_validation.py, the shipped plastic file's homoge
 fine-tuned by sa-train with the relit loss on procedural plastic and metal sets and the real sets
 of the other three folds (each real set linked ``--real-copies`` times, so that a minibatch holds
 some), each with its own specular pair, under the training probes; then measured on the fold's
-validation photos (the same photos as the shipped files'). sa-train leaves the file's joint
-reading head and albedo correction out, so the file to beat is also the shipped one less them.
+validation photos (the same photos as the shipped files'), beside the shipped plastic file.
+With ``--dielectrics-only`` the training sees no metal: no procedural metal sets, and no real
+set whose relative specular albedo exceeds METAL_RELATIVE_SPECULAR (a metal's, whose reduced
+diffuse albedo is the floor).
 
     .venv/bin/python experiments/plastic_lobe_on_real_folds.py --out OUT [--steps 800] \
         [--folds fold1,fold2,fold3,fold4]
@@ -31,19 +33,32 @@ from real_validation import (  # noqa: E402
 )
 from release import training_probes  # noqa: E402
 
+from render.materials.reduced_svbrdf import load_material  # noqa: E402
 from train.estimation.network_choice import network_choice  # noqa: E402
 from train.networks.model_files import load_network, save_model, shipped_model_path  # noqa: E402
 
 BIN = Path(sys.executable).parent
 PROCEDURAL = {"plastic": (0, 2, 3, 4), "metal": (0, 2)}
 """make-materials seeds (50 sets each) of the procedural sets beside the real ones."""
+METAL_RELATIVE_SPECULAR = 2.0
+"""Mean relative specular albedo above which a real set counts as a metal (the real sets'
+metals: 4 to 39; their dielectrics: at most 1.2)."""
 
 
-def fold_maps(out: Path, fold: str, copies: int) -> Path:
-    """out/maps/<fold>: the procedural sets and ``copies`` links to each real set of the other
-    folds."""
-    folder = out / "maps" / fold
-    for material_class, seeds in PROCEDURAL.items():
+def is_metal(name: str) -> bool:
+    """Whether the real set ``name`` reduces to a metal's lobe."""
+    svbrdf = load_material(SHARED / "svbrdfs" / name)
+    return float(svbrdf.specular.mean()) * 0.5 / float(svbrdf.albedo.mean()) \
+        > METAL_RELATIVE_SPECULAR
+
+
+def fold_maps(out: Path, fold: str, copies: int, dielectrics_only: bool) -> Path:
+    """out/maps/<fold>[-dielectrics]: the procedural sets and ``copies`` links to each real set
+    of the other folds (``dielectrics_only``: no metals)."""
+    folder = out / "maps" / (f"{fold}-dielectrics" if dielectrics_only else fold)
+    procedural = {c: seeds for c, seeds in PROCEDURAL.items()
+                  if not (dielectrics_only and c == "metal")}
+    for material_class, seeds in procedural.items():
         for seed in seeds:
             sets = out / "sets" / f"{material_class}-{seed}"
             if not sets.is_dir():
@@ -53,6 +68,8 @@ def fold_maps(out: Path, fold: str, copies: int) -> Path:
             linked_folder(folder, [p.name for p in sorted(sets.iterdir()) if p.is_dir()], sets)
     for other, names in FOLDS.items():
         for name in names if other != fold else ():
+            if dielectrics_only and is_metal(name):
+                continue
             for copy in range(copies):
                 link = folder / f"{name}-{copy}"
                 if not link.exists():
@@ -65,11 +82,12 @@ def fold_maps(out: Path, fold: str, copies: int) -> Path:
 @click.option("--steps", default=800, show_default=True, help="Multiple of 200.")
 @click.option("--real-copies", default=6, show_default=True)
 @click.option("--folds", default=",".join(FOLDS), show_default=True)
-def main(out, steps, real_copies, folds):
+@click.option("--dielectrics-only", is_flag=True, help="Train on no metal (module docstring).")
+def main(out, steps, real_copies, folds, dielectrics_only):
     out = Path(out)
     probes = linked_folder(out / "probes-training",
                            [f"{name}.exr" for name in training_probes(SHARED)], SHARED / "probes")
-    name = "plastic+real-lobe"
+    name = "plastic+real-lobe" + ("-dielectrics" if dielectrics_only else "")
     folds = tuple(folds.split(","))
     for fold in folds:
         model = out / "files" / name / fold / "svbrdf-plastic.safetensors"
@@ -78,7 +96,8 @@ def main(out, steps, real_copies, folds):
             subprocess.run([str(BIN / "sa-train"),
                             "--init-from", str(shipped_model_path("plastic")),
                             "--train-networks", "homogeneous", "--own-specular",
-                            "--labeled-maps", str(fold_maps(out, fold, real_copies)),
+                            "--labeled-maps", str(fold_maps(out, fold, real_copies,
+                                                            dielectrics_only)),
                             "--probes", str(probes), "--out", str(run), "--network", "compact",
                             "--albedo-network", "photo-affine", "--relit-loss-weight", "300",
                             "--labeled-epochs", str(steps // 200), "--self-augmented-epochs", "0",
@@ -87,10 +106,12 @@ def main(out, steps, real_copies, folds):
                             "--log-every", "50"], check=True)
             save_model(load_network(run), model, {
                 "class": "plastic", "recipe": f"experiments/plastic_lobe_on_real_folds.py "
-                                              f"--steps {steps} --real-copies {real_copies}"})
+                                              f"--steps {steps} --real-copies {real_copies}"
+                                              + (" --dielectrics-only" if dielectrics_only
+                                                 else "")})
     evaluate_choice(out, "validation", name, lambda fold: network_choice(
         out / "files" / name / fold / "svbrdf-plastic.safetensors", "plastic"), only=folds)
-    report_beside_shipped(out, ["plastic-without-joint+correction", name])
+    report_beside_shipped(out, [name])
 
 
 if __name__ == "__main__":

@@ -10,13 +10,19 @@ import numpy as np
 import pytest
 import torch
 from click.testing import CliRunner
-from safetensors.torch import save_file
+from safetensors import safe_open
+from safetensors.torch import load_file, save_file
 
 from render.common.errors import InputError
 from render.common.exposure import expose
 from render.common.probes import find_probes, load_probe
 from render.torch_renderer.renderer import ProbeBank
-from tests.conftest import BUNDLED_PHOTO, estimate_bundled_photo, BUNDLED_MATERIALS, BUNDLED_PROBES
+from tests.conftest import (
+    BUNDLED_MATERIALS,
+    BUNDLED_PHOTO,
+    BUNDLED_PROBES,
+    estimate_bundled_photo,
+)
 from train.cli.sa_estimate import main as sa_estimate
 from train.cli.sa_evaluate import main as sa_evaluate
 from train.data.map_samples import MapSampler
@@ -186,8 +192,30 @@ def write_corrupt(path):
     path.write_bytes(b"\x10\x00\x00\x00\x00\x00\x00\x00{not json")
 
 
-@pytest.mark.parametrize("write, message", [(write_foreign, "not an sa-svbrdf model"),
-                                            (write_corrupt, "cannot read safetensors")])
+def write_with_a_removed_head(path):
+    """A model file of before 2026-12-05, whose network carried a joint reading head."""
+    save_model(SVBRDFNet(TINY), path, {"class": "plastic"})
+    tensors = load_file(str(path))
+    with safe_open(str(path), framework="pt") as file:
+        metadata = file.metadata()
+    network = json.loads(metadata["network"]) | {"joint_reading": True}
+    save_file(tensors, str(path), metadata=metadata | {"network": json.dumps(network)})
+
+
+def write_without_the_normal_network(path):
+    net = SVBRDFNet(TINY)
+    save_model(net, path, {"class": "plastic"})
+    with safe_open(str(path), framework="pt") as file:
+        metadata = file.metadata()
+    save_file({name: value for name, value in load_file(str(path)).items()
+               if not name.startswith("normal.")}, str(path), metadata=metadata)
+
+
+@pytest.mark.parametrize("write, message", [
+    (write_foreign, "not an sa-svbrdf model"), (write_corrupt, "cannot read safetensors"),
+    (write_with_a_removed_head, "model has no valid network configuration .*joint_reading"),
+    (write_without_the_normal_network,
+     "weights do not fit this network architecture \\(missing normal.analysis")])
 def test_foreign_and_corrupt_model_files_get_one_line_errors(tmp_path, write, message):
     path = tmp_path / "model.safetensors"
     write(path)
@@ -214,8 +242,8 @@ def test_a_model_file_round_trips_in_float16(tmp_path):
 
 
 def test_metadata_copied_from_another_file_keeps_the_new_files_format_and_network(tmp_path):
-    """A model written with the metadata of another file (as scripts/fit_joint_reading.py
-    writes its output) has its own format and network configuration, the rest copied."""
+    """A model written with the metadata of another file (a variant of a shipped file) has its
+    own format and network configuration, the rest copied."""
     small = NetworkConfig(input_size=32, width=4, max_width=8, levels=3, hidden=16)
     save_model(SVBRDFNet(small), tmp_path / "old.safetensors", {"class": "plastic"})
     copied = model_metadata(tmp_path / "old.safetensors", MODEL_FORMAT, "model")

@@ -102,22 +102,15 @@ def test_a_photo_affine_albedo_maps_the_whole_photo_by_its_views_numbers():
     assert np.abs(albedo - plain).mean() > 0.05
 
 
-def test_a_joint_reading_head_sets_the_full_resolution_offset_too():
-    """With a JointReading head, the whole photo is mapped by the head's corrected reflection
-    share of its network-size view, as the network-size estimate is."""
+def test_a_square_photo_at_the_input_size_gets_the_estimates_photo_affine_albedo():
     torch.manual_seed(0)
     config = NetworkConfig(input_size=32, width=4, max_width=16, levels=3, hidden=32,
-                           albedo_network="photo-affine", joint_reading=True)
+                           albedo_network="photo-affine")
     net = SVBRDFNet(config).eval()
-    with torch.no_grad():  # a head that raises the reflection's share well above the network's
-        net.joint.mlp[2].bias.copy_(torch.tensor([0.0, 0.0, 0.0, 0.0, 2.0]))
-    photo = resize(read_linear_photo(BUNDLED_PHOTO), 48, 80)
-    albedo, _ = full_resolution_maps(net, photo, max_side=40)
-    small = torch.as_tensor(resize(photo, 24, 40).transpose(2, 0, 1)[None])
-    view = torch.as_tensor(resize(centre_square(resize(photo, 24, 40)), 32, 32)
-                           .transpose(2, 0, 1)[None]).clip(0, 1)
     with torch.no_grad():
-        corrected = photo_affine_albedo(net.joint_readings(view)[2], small)
-        networks_own = photo_affine_albedo(net.albedo.affine(view), small)
-    assert np.allclose(albedo, corrected[0].permute(1, 2, 0).numpy(), rtol=1e-4, atol=1e-6)
-    assert np.abs(albedo - networks_own[0].permute(1, 2, 0).numpy()).mean() > 0.02
+        net.albedo.affine.synthesis[3].bias.copy_(torch.tensor([-0.5]))
+    photo = np.clip(resize(read_linear_photo(BUNDLED_PHOTO), 32, 32), 0, 1)
+    albedo, _ = full_resolution_maps(net, photo)
+    estimated = estimate(net, np.ascontiguousarray(photo.transpose(2, 0, 1)))
+    assert np.allclose(albedo, estimated.albedo, rtol=1e-4, atol=1e-6)
+    assert np.abs(albedo - photo * (0.5 / photo.mean())).mean() > 0.02  # an offset was taken

@@ -479,28 +479,6 @@ def test_a_photo_affine_albedo_network_starts_from_the_homogeneous_analysis(
     assert "the albedo network starts fresh and must be among the trained" in frozen.output
 
 
-def test_init_from_a_model_with_parts_fit_after_training_loads_its_networks_only(
-        trained_run, dataset, tmp_path):
-    """A joint reading head and an albedo correction read the networks
-    as they were; a run that trains them starts without them."""
-    config = dataclasses.replace(load_network(trained_run).config,
-                                 albedo_network="photo-affine", joint_reading=True,
-                                 albedo_correction=True)
-    torch.manual_seed(0)
-    model = SVBRDFNet(config)
-    save_model(model, tmp_path / "joint.safetensors", {"class": "plastic"})
-    run = Run(TrainConfig(dataset=str(dataset), out=str(tmp_path / "unused"),
-                          probes=str(BUNDLED_PROBES), init_from=str(tmp_path / "joint.safetensors"),
-                          network=dataclasses.replace(config, joint_reading=False,
-                                                      albedo_correction=False),
-                          train_networks=("homogeneous",)))
-    assert not hasattr(run.net, "joint") and not hasattr(run.net, "correction")
-    saved = load_network(tmp_path / "joint.safetensors")
-    for name in ("homogeneous", "albedo", "normal"):
-        for key, value in getattr(saved, name).state_dict().items():
-            assert torch.equal(getattr(run.net, name).state_dict()[key], value), key
-
-
 @pytest.mark.parametrize("form", RELIT_LOSS_FORMS)
 def test_relit_loss_is_zero_for_the_truth_and_pulls_specular_and_roughness_toward_it(form):
     probe_files = find_probes(BUNDLED_PROBES)

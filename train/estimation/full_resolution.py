@@ -21,10 +21,8 @@ convolutional, so they can also run on other sizes; the maps here come from two 
 A photo-affine albedo network (train.networks.svbrdf_net.PhotoAffineAlbedoNet) needs none of
 this: its albedo is the photo less an offset, pixel by pixel, so the whole photo at output
 resolution loses the offset predicted for its network-size view (the centre square at S x S,
-as the estimate sees it); only the normals go through steps 1 to 3. Its AlbedoCorrection, where
-it has one, was fit at the network's scale: it reads the overview's photo-affine albedo, and
-its log gain, upsampled bilinearly, multiplies the full-resolution albedo (scaled to mean 0.5
-again). For a square photo of S x S pixels, both are the network-size estimate's albedo.
+as the estimate sees it); only the normals go through steps 1 to 3. For a square photo of
+S x S pixels, this is the network-size estimate's albedo.
 
 Why not the tiles alone: a tile sees the texture magnified (output side / S times), a scale
 the networks were not trained on, and each tile's albedo comes out relative to its own content
@@ -76,16 +74,11 @@ def full_resolution_maps(net: SVBRDFNet, linear_photo: np.ndarray, max_side: int
 
 def photo_affine_albedo_map(net: SVBRDFNet, photo: np.ndarray) -> torch.Tensor:
     """(1, 3, H, W): the (H, W, 3) photo's albedo by a photo-affine albedo network, its
-    offset read on the photo's network-size view (its centre square at S x S), its
-    AlbedoCorrection (where it has one) on the overview (SVBRDFNet.full_resolution_albedo)."""
+    offset read on the photo's network-size view (its centre square at S x S)."""
     device = next(net.parameters()).device
-
-    def tensor(array):
-        return torch.as_tensor(np.ascontiguousarray(array.transpose(2, 0, 1)))[None].to(device)
-
+    image = torch.as_tensor(np.ascontiguousarray(photo.transpose(2, 0, 1)))[None].to(device)
     view = torch.as_tensor(network_view(photo, net.config.input_size))[None].to(device)
-    overview = overview_photo(photo, net.config.input_size, 2 ** net.config.levels)
-    return net.full_resolution_albedo(tensor(photo), view, tensor(overview)).cpu()
+    return net.albedo(image, reference=view).cpu()
 
 
 def overview_photo(photo: np.ndarray, input_size: int, multiple: int) -> np.ndarray:

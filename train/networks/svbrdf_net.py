@@ -28,22 +28,6 @@ All three networks share the structure of their analysis sub-network: ``levels``
   offset is what the photo alone does not tell. The albedo keeps the photo's every detail,
   and with it what this model leaves out (the light's color, shading of relief, glints of a
   glossy relief).
-- ``JointReading`` (``joint_reading=True``): a small head that reads the homogeneous
-  network's specular albedo and roughness, with quantiles of the photo's values, and
-  corrects them; beside a photo-affine albedo network it reads and corrects the albedo
-  network's reflection share too (five values). The two networks read one ambiguity apart (a
-  flat photo's reflection is an offset that a lighter albedo explains as well); beside a
-  map albedo network the head corrects the homogeneous network's readings for the relit
-  error they cause (a roughness read too low costs more than one read too high). The head is
-  fit after the networks, on the evaluation's relit error (train.fits.joint_reading), and starts
-  as the identity (its last layer zero).
-- ``AlbedoCorrection`` (``albedo_correction=True``, beside a photo-affine albedo network): a
-  small local network that multiplies the photo-affine albedo by a gain per pixel and channel,
-  read from the albedo's neighbourhood (about 33 px) and its mean features over the photo.
-  The photo-affine albedo keeps what the photo shows beside the albedo (shading of relief,
-  glints); the correction is fit after the other networks, on the albedo's error
-  (train.fits.albedo_correction), and starts as the identity (its last layer zero).
-
 Input: (B, 3, S, S) photos, linear RGB in [0, 1] (docs/conventions.md), S divisible by
 2^levels. Outputs follow the label conventions of docs/dataset-format.md.
 """
@@ -82,12 +66,6 @@ class NetworkConfig:
     albedo_network: str = "map"
     """The albedo network: "map" (the paper's: a U-Net predicts every pixel) or
     "photo-affine" (the photo less a predicted grey offset, PhotoAffineAlbedoNet)."""
-    joint_reading: bool = False
-    """A JointReading head corrects the specular albedo and roughness (and the reflection
-    share of a photo-affine albedo network)."""
-    albedo_correction: bool = False
-    """An AlbedoCorrection network refines the albedo locally (needs the photo-affine albedo
-    network)."""
 
     def __post_init__(self):
         if self.albedo_network not in ALBEDO_NETWORKS:
@@ -96,8 +74,6 @@ class NetworkConfig:
         if self.homogeneous_pooling not in HOMOGENEOUS_POOLINGS:
             raise ValueError(f"homogeneous_pooling {self.homogeneous_pooling!r} is not one of "
                              f"{', '.join(HOMOGENEOUS_POOLINGS)}")
-        if self.albedo_correction and self.albedo_network != "photo-affine":
-            raise ValueError("albedo_correction needs the photo-affine albedo network")
         if self.input_size % 2 ** self.levels:
             raise ValueError(f"input_size {self.input_size} is not divisible by 2^levels "
                              f"({2 ** self.levels})")
@@ -225,114 +201,6 @@ def photo_affine_albedo(logit: torch.Tensor, image: torch.Tensor) -> torch.Tenso
     return albedo * (0.5 / albedo.mean((1, 2, 3), keepdim=True))
 
 
-PHOTO_QUANTILES = (0.0, 0.01, 0.05, 0.25, 0.5, 0.75, 0.95, 0.99, 1.0)
-"""Quantiles of each channel's pixel values that JointReading reads (photo_statistics)."""
-JOINT_READING_HIDDEN = 64
-"""Hidden units of JointReading."""
-
-
-def photo_statistics(image: torch.Tensor) -> torch.Tensor:
-    """(B, 3 len(PHOTO_QUANTILES)): the quantiles PHOTO_QUANTILES of each channel's pixel
-    values of ``image`` (B, 3, S, S), over the photo's mean (so that they do not depend on its
-    exposure), quantile-major."""
-    quantiles = torch.tensor(PHOTO_QUANTILES, dtype=image.dtype, device=image.device)
-    values = torch.quantile(image.flatten(2), quantiles, dim=2)  # (Q, B, 3)
-    return values.permute(1, 0, 2).flatten(1) / image.mean((1, 2, 3))[:, None].clamp(min=1e-6)
-
-
-class JointReading(nn.Module):
-    """(log relative specular albedo (B, 3), log roughness (B, 1), reflection share logit
-    (B, 1) or None, photo_statistics (B, 27)) -> the same three, corrected (the logit None
-    where the head does not read it: ``reads_share`` False, beside a map albedo network). An
-    MLP of one hidden layer reads them, each input standardized by the buffers ``mean`` and
-    ``scale`` (set when the head is fit), and adds its outputs (``values``: 5, or 4 without the
-    share) to the values read; its last layer starts at zero (the identity)."""
-
-    def __init__(self, reads_share: bool = True):
-        super().__init__()
-        self.reads_share = reads_share
-        self.values = 5 if reads_share else 4
-        inputs = self.values + 3 * len(PHOTO_QUANTILES)
-        self.register_buffer("mean", torch.zeros(inputs))
-        self.register_buffer("scale", torch.ones(inputs))
-        self.mlp = nn.Sequential(nn.Linear(inputs, JOINT_READING_HIDDEN),
-                                 nn.ReLU(inplace=True),
-                                 nn.Linear(JOINT_READING_HIDDEN, self.values))
-        nn.init.zeros_(self.mlp[2].weight)
-        nn.init.zeros_(self.mlp[2].bias)
-
-    def readings(self, log_specular: torch.Tensor, log_roughness: torch.Tensor,
-                 logit: torch.Tensor | None, statistics: torch.Tensor) -> torch.Tensor:
-        """The (B, values + 27) inputs of the head, before standardizing."""
-        shares = [logit] if self.reads_share else []
-        return torch.cat([log_specular, log_roughness, *shares, statistics], 1)
-
-    def forward(self, log_specular: torch.Tensor, log_roughness: torch.Tensor,
-                logit: torch.Tensor | None, statistics: torch.Tensor
-                ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
-        inputs = self.readings(log_specular, log_roughness, logit, statistics)
-        return self.corrected(inputs)
-
-    def corrected(self, inputs: torch.Tensor
-                  ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
-        """(log specular (B, 3), log roughness (B, 1), logit (B, 1) or None): the head's
-        correction of its ``inputs`` (readings)."""
-        corrected = inputs[:, :self.values] + self.mlp((inputs - self.mean) / self.scale)
-        logit = corrected[:, 4:5] if self.reads_share else None
-        return corrected[:, :3], corrected[:, 3:4], logit
-
-
-ALBEDO_CORRECTION_WIDTH = 16
-"""Channels of AlbedoCorrection's convolutions."""
-ALBEDO_CORRECTION_DILATIONS = (1, 2, 4, 8)
-"""Dilations of AlbedoCorrection's residual 3x3 convolutions: with its first convolution, a
-neighbourhood of 33 x 33 px."""
-
-
-class AlbedoCorrection(nn.Module):
-    """Relative albedo (B, 3, H, W) -> the same, each pixel and channel multiplied by a gain.
-
-    The network reads the albedo scaled to mean 0.5 and its logarithm (log(a + 0.01)), through
-    a 3x3 convolution and residual dilated 3x3 convolutions (ALBEDO_CORRECTION_DILATIONS);
-    beside each pixel's features, their mean over the image (what kind of material the photo
-    shows); a 1x1 convolution mixes the two and another gives the log gain, clamped to
-    [-4, 4]. Its last layer starts at zero: a fresh correction is the identity. It is fit at
-    the network's input scale (train.fits.albedo_correction): a full-resolution albedo takes the
-    gain read at that scale (train.estimation.full_resolution)."""
-
-    def __init__(self):
-        super().__init__()
-        width = ALBEDO_CORRECTION_WIDTH
-        self.first = nn.Conv2d(6, width, 3, padding=1)
-        self.residual = nn.ModuleList(nn.Conv2d(width, width, 3, padding=d, dilation=d)
-                                      for d in ALBEDO_CORRECTION_DILATIONS)
-        self.mix = nn.Conv2d(2 * width, width, 1)
-        self.log_gain_output = nn.Conv2d(width, 3, 1)
-        nn.init.zeros_(self.log_gain_output.weight)
-        nn.init.zeros_(self.log_gain_output.bias)
-
-    def log_gain(self, albedo: torch.Tensor) -> torch.Tensor:
-        """(B, 3, H, W): the natural log of the gain of each pixel and channel of ``albedo``."""
-        scaled = albedo * (0.5 / albedo.mean((1, 2, 3), keepdim=True).clamp(min=1e-4))
-        x = torch.relu(self.first(torch.cat([scaled, torch.log(scaled + 0.01)], 1)))
-        for convolution in self.residual:
-            x = x + torch.relu(convolution(x))
-        context = x.mean((2, 3), keepdim=True).expand_as(x)
-        x = torch.relu(self.mix(torch.cat([x, context], 1)))
-        return self.log_gain_output(x).clamp(-4.0, 4.0)
-
-    def forward(self, albedo: torch.Tensor) -> torch.Tensor:
-        """``albedo`` times its gain, scaled to mean 0.5 over pixels and channels (the labels'
-        convention)."""
-        return apply_log_gain(albedo, self.log_gain(albedo))
-
-
-def apply_log_gain(albedo: torch.Tensor, log_gain: torch.Tensor) -> torch.Tensor:
-    """``albedo`` (B, 3, H, W) times exp(``log_gain``) (the same shape), scaled to mean 0.5."""
-    corrected = albedo * torch.exp(log_gain)
-    return corrected * (0.5 / corrected.mean((1, 2, 3), keepdim=True).clamp(min=1e-6))
-
-
 PARTS = {"homogeneous": ("log_specular", "log_roughness"), "albedo": ("albedo",),
          "normal": ("normal",)}
 """The three networks of SVBRDFNet (its attribute names) and the labels each predicts."""
@@ -352,10 +220,6 @@ class SVBRDFNet(nn.Module):
         self.albedo = (MapNet(config, functional.softplus) if config.albedo_network == "map"
                        else PhotoAffineAlbedoNet(config))
         self.normal = MapNet(config, torch.sigmoid)
-        if config.joint_reading:
-            self.joint = JointReading(reads_share=config.albedo_network == "photo-affine")
-        if config.albedo_correction:
-            self.correction = AlbedoCorrection()
         self.to(memory_format=torch.channels_last)
 
     def forward(self, image: torch.Tensor,
@@ -363,73 +227,18 @@ class SVBRDFNet(nn.Module):
         """``image`` (B, 3, S, S) -> dict of albedo (B, 3, S, S) relative diffuse albedo
         (positive, mean about 0.5); normal (B, 3, S, S) unit tangent-space normals;
         log_specular (B, 3); log_roughness (B, 1). Only the networks named in ``parts`` (keys
-        of PARTS) run, and only their labels are returned (training one network alone). With a
-        JointReading head, the specular albedo, roughness and (beside a photo-affine albedo
-        network) albedo are the head's corrected readings (the homogeneous network runs
-        whenever the head does). With an AlbedoCorrection, the albedo is its corrected one."""
+        of PARTS) run, and only their labels are returned (training one network alone)."""
         check_images(image, 3, self.config.input_size)
         outputs = {}
-        if self.config.joint_reading and ("homogeneous" in parts or (
-                "albedo" in parts and self.joint.reads_share)):
-            log_specular, log_roughness, logit = self.joint_readings(image)
-            if "homogeneous" in parts:
-                outputs["log_specular"], outputs["log_roughness"] = log_specular, log_roughness
-            if "albedo" in parts:
-                outputs["albedo"] = (self.albedo(image) if logit is None
-                                     else photo_affine_albedo(logit, image))
-        else:
-            if "homogeneous" in parts:
-                homogeneous = self.homogeneous(image)  # (B, 4)
-                outputs["log_specular"], outputs["log_roughness"] = (homogeneous[:, :3],
-                                                                     homogeneous[:, 3:])
-            if "albedo" in parts:
-                outputs["albedo"] = self.albedo(image)
-        if "albedo" in outputs and self.config.albedo_correction:
-            outputs["albedo"] = self.correction(outputs["albedo"])
+        if "homogeneous" in parts:
+            homogeneous = self.homogeneous(image)  # (B, 4)
+            outputs["log_specular"], outputs["log_roughness"] = (homogeneous[:, :3],
+                                                                 homogeneous[:, 3:])
+        if "albedo" in parts:
+            outputs["albedo"] = self.albedo(image)
         if "normal" in parts:
             outputs["normal"] = decode_normal(self.normal(image))
         return outputs
-
-    def joint_readings(self, image: torch.Tensor
-                       ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | None]:
-        """The JointReading head's corrected log relative specular albedo (B, 3), log
-        roughness (B, 1) and reflection share logit (B, 1; None beside a map albedo
-        network) of ``image`` (B, 3, S, S)."""
-        homogeneous = self.homogeneous(image)
-        logit = self.albedo.affine(image) if self.joint.reads_share else None
-        return self.joint(homogeneous[:, :3], homogeneous[:, 3:], logit,
-                          photo_statistics(image))
-
-    def photo_affine_albedo(self, image: torch.Tensor, reference: torch.Tensor) -> torch.Tensor:
-        """The photo-affine albedo (B, 3, H, W) of ``image`` (any size) with the reflection
-        share read from ``reference`` (B, 3, S, S), its network-size view; through the
-        JointReading head when the network has one. Without an AlbedoCorrection (which
-        train.estimation.full_resolution applies at the network's scale)."""
-        return photo_affine_albedo(self.reflection_logit(reference), image)
-
-    def full_resolution_albedo(self, photo: torch.Tensor, reference: torch.Tensor,
-                               overview: torch.Tensor) -> torch.Tensor:
-        """The photo-affine albedo (1, 3, H, W) of ``photo`` (1, 3, H, W) at any resolution:
-        the reflection share read from ``reference`` (1, 3, S, S), the photo's network-size
-        view, once for both ``photo`` and ``overview`` (the photo at the network's scale);
-        with an AlbedoCorrection, its log gain read on the overview's photo-affine albedo
-        (the scale it was fit at), upsampled bilinearly to the photo's size, multiplies the
-        albedo (train.estimation.full_resolution)."""
-        logit = self.reflection_logit(reference)
-        albedo = photo_affine_albedo(logit, photo)
-        if self.config.albedo_correction:
-            log_gain = functional.interpolate(
-                self.correction.log_gain(photo_affine_albedo(logit, overview)),
-                size=albedo.shape[2:], mode="bilinear", align_corners=False)
-            albedo = apply_log_gain(albedo, log_gain)
-        return albedo
-
-    def reflection_logit(self, reference: torch.Tensor) -> torch.Tensor:
-        """(B, 1): the logit of the reflection's share of the photo-affine albedo, read from
-        ``reference`` (B, 3, S, S); through the JointReading head when the network has one."""
-        if not self.config.joint_reading:
-            return self.albedo.affine(reference)
-        return self.joint_readings(reference)[2]
 
 
 def check_images(image: torch.Tensor, channels: int, size: int) -> None:

@@ -234,22 +234,13 @@ class Run:
         only in fields of FRESH_WHEN_CHANGED, the networks those fields shape start fresh (they
         must then be trained) and the others are loaded; a fresh photo-affine albedo network
         starts its analysis from the model's homogeneous analysis (both read a photo's
-        homogeneous cues, and training on a CPU is short). A JointReading head and an
-        AlbedoCorrection of the model are left out (they read the networks as they were: fit
-        them again after training)."""
+        homogeneous cues, and training on a CPU is short)."""
         start = load_network(model)
         config = self.cfg.network
         changed = [name for name in FRESH_WHEN_CHANGED
                    if getattr(start.config, name) != getattr(config, name)]
-        if start.config.joint_reading:
-            log.info("%s: its joint reading head is not carried over (fit one again after "
-                     "training: scripts/fit_joint_reading.py)", model)
-        if start.config.albedo_correction:
-            log.info("%s: its albedo correction is not carried over (fit one again after "
-                     "training: scripts/fit_albedo_correction.py)", model)
-        ignored = changed + ["joint_reading", "albedo_correction"]
         if start.config != dataclasses.replace(config, **{name: getattr(start.config, name)
-                                                          for name in ignored}):
+                                                          for name in changed}):
             raise InputError(model, f"its network {start.config} differs from this run's "
                                     f"{config}")
         fresh = {FRESH_WHEN_CHANGED[name] for name in changed}
