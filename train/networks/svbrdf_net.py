@@ -28,6 +28,7 @@ All three networks share the structure of their analysis sub-network: ``levels``
   offset is what the photo alone does not tell. The albedo keeps the photo's every detail,
   and with it what this model leaves out (the light's color, shading of relief, glints of a
   glossy relief).
+
 Input: (B, 3, S, S) photos, linear RGB in [0, 1] (docs/conventions.md), S divisible by
 2^levels. Outputs follow the label conventions of docs/dataset-format.md.
 """
