@@ -157,12 +157,14 @@ def split_folds(split: str) -> dict[str, tuple[str, ...]]:
 
 def evaluate_choice(out: Path, split: str, name: str, make_choice, samples: int = 60,
                     relights: int = 3, excluded=SHIPPED_TRAINING_SETS,
-                    shared: Path = SHARED, only: tuple[str, ...] | None = None) -> None:
+                    shared: Path = SHARED, only: tuple[str, ...] | None = None,
+                    device: str = "cpu") -> None:
     """sa-evaluate the network choice ``make_choice(fold)`` gives (train.estimation.
     network_choice) on every fold of ``split`` (or those named in ``only``) whose
     ``out/<fold>/<name>/results.json`` is missing: photos of the fold's sets less ``excluded``,
-    under the split's probes (the same photos for every choice). Experiments (experiments/)
-    measure their variants with it."""
+    under the split's probes (the same photos for every choice), rendered and relit on the
+    torch ``device`` (the choice's networks must be on it). Experiments (experiments/) measure
+    their variants with it."""
     folds = {fold: names for fold, names in split_folds(split).items()
              if only is None or fold in only}
     probes = linked_folder(out / f"probes-{split}",
@@ -175,7 +177,7 @@ def evaluate_choice(out: Path, split: str, name: str, make_choice, samples: int 
             continue
         sets = linked_folder(out / "sets" / fold, kept, shared / "svbrdfs")
         cfg = EvaluationConfig(out=str(target), probes=str(probes), materials=str(sets),
-                               samples=samples, relights=relights)
+                               samples=samples, relights=relights, device=device)
         report = run(cfg, make_choice(fold))
         print(json.dumps({"fold": fold, "choice": name,
                           "relit_ratio": report["mean"]["ratio"]["relit_rmse"]}), flush=True)

@@ -20,8 +20,9 @@ Into WORK, each step kept where done, so that the same command continues a cut-o
     runs/<network>-<fold>/        sa-train runs (each resumes from its newest checkpoint)
     files/<fold>/svbrdf-<network>.safetensors   each run's newest checkpoint, exported (fold
                                   "all": the released files)
-    validation/, test/            scripts/real_validation.py evaluations and tables (an
-                                  evaluation of an older export is made again)
+    validation/, test/            scripts/real_validation.py evaluations and tables, on
+                                  ``--device`` too (an evaluation of an older export is made
+                                  again)
     card.md, release.json         the card's tables: each run's steps and minutes, the
                                   validation per fold and network, the test
 
@@ -286,9 +287,10 @@ def validation_file(work: Path, network: Network, fold: str) -> Path:
     return work / "files" / (fold if own else "all") / f"svbrdf-{network.name}.safetensors"
 
 
-def evaluate(work: Path, split: str, size: Size, shared: Path) -> dict:
+def evaluate(work: Path, split: str, size: Size, shared: Path, device: str) -> dict:
     """scripts/real_validation.py's evaluation of every network on ``split``, into
-    work/<split>; an evaluation of another file than the current export is made again."""
+    work/<split>, on the torch ``device``; an evaluation of another file than the current
+    export is made again."""
     out, folds = work / split, list(split_folds(split))
     for network in RECIPE:
         for fold in folds:
@@ -299,8 +301,8 @@ def evaluate(work: Path, split: str, size: Size, shared: Path) -> dict:
                     shutil.rmtree(config.parent)
         evaluate_choice(out, split, network.name,
                         lambda fold, n=network: FixedNetwork(load_network(
-                            validation_file(work, n, fold))),
-                        size.photos, size.relights, excluded=(), shared=shared)
+                            validation_file(work, n, fold), device)),
+                        size.photos, size.relights, excluded=(), shared=shared, device=device)
     return summarize(out, folds, [network.name for network in RECIPE])
 
 
@@ -354,7 +356,8 @@ def main(out, size_name, train_minutes, device, parallel, shared):
         for network in RECIPE:
             for fold in run_folds(network):
                 export(work, network, fold, size_name, command)
-        tables = {split: evaluate(work, split, size, shared) for split in ("validation", "test")}
+        tables = {split: evaluate(work, split, size, shared, device)
+                  for split in ("validation", "test")}
         write_card(work, command, record, tables)
     except InputError as error:
         raise click.ClickException(str(error)) from None
