@@ -39,9 +39,9 @@ from real_validation import (  # noqa: E402
     FOLDS,
     SHARED,
     SHIPPED_TRAINING_SETS,
-    VALIDATION_PROBES,
     linked_folder,
     material_set,
+    split_probe_folder,
 )
 
 from render.common.atomic_files import atomic_path  # noqa: E402
@@ -81,7 +81,7 @@ def cache_fold(out: Path, fold: str, samples: int, relights: int) -> list[dict]:
     if path.is_file():
         return torch.load(path, weights_only=True)
     kept = [name for name in FOLDS[fold] if name not in SHIPPED_TRAINING_SETS]
-    cfg = EvaluationConfig(out=str(out / fold), probes=str(probe_folder(out)),
+    cfg = EvaluationConfig(out=str(out / fold), probes=str(split_probe_folder(out, "validation")),
                            materials=str(linked_folder(out / "sets" / fold, kept,
                                                        SHARED / "svbrdfs")),
                            samples=samples, relights=relights)
@@ -107,14 +107,9 @@ def cache_fold(out: Path, fold: str, samples: int, relights: int) -> list[dict]:
     return rows
 
 
-def probe_folder(out: Path) -> Path:
-    return linked_folder(out / "probes-validation", [f"{p}.exr" for p in VALIDATION_PROBES],
-                         SHARED / "probes")
-
-
 def probe_bank(out: Path) -> tuple[ProbeBank, list[str]]:
     """The validation probes as a ProbeBank, and their names in its order."""
-    files = find_probes(probe_folder(out))
+    files = find_probes(split_probe_folder(out, "validation"))
     return ProbeBank([load_probe(p).radiance for p in files]), [p.stem for p in files]
 
 

@@ -31,7 +31,7 @@ from real_validation import (  # noqa: E402
     linked_folder,
     report_beside_shipped,
 )
-from release import training_probes  # noqa: E402
+from release import training_probe_folder  # noqa: E402
 
 from render.materials.reduced_svbrdf import load_material  # noqa: E402
 from train.estimation.network_choice import network_choice  # noqa: E402
@@ -85,8 +85,7 @@ def fold_maps(out: Path, fold: str, copies: int, dielectrics_only: bool) -> Path
 @click.option("--dielectrics-only", is_flag=True, help="Train on no metal (module docstring).")
 def main(out, steps, real_copies, folds, dielectrics_only):
     out = Path(out)
-    probes = linked_folder(out / "probes-training",
-                           [f"{name}.exr" for name in training_probes(SHARED)], SHARED / "probes")
+    probes = training_probe_folder(out, SHARED)
     name = "plastic+real-lobe" + ("-dielectrics" if dielectrics_only else "")
     folds = tuple(folds.split(","))
     for fold in folds:

@@ -155,6 +155,13 @@ def split_folds(split: str) -> dict[str, tuple[str, ...]]:
     return FOLDS if split == "validation" else {"test": TEST_SETS}
 
 
+def split_probe_folder(out: Path, split: str, shared: Path = SHARED) -> Path:
+    """out/probes-<split>: links to the probes that light and relight ``split``'s photos."""
+    return linked_folder(out / f"probes-{split}",
+                         [f"{probe}.exr" for probe in (VALIDATION_PROBES if split == "validation"
+                                                       else TEST_PROBES)], shared / "probes")
+
+
 def evaluate_choice(out: Path, split: str, name: str, make_choice, samples: int = 60,
                     relights: int = 3, excluded=SHIPPED_TRAINING_SETS,
                     shared: Path = SHARED, only: tuple[str, ...] | None = None,
@@ -167,9 +174,7 @@ def evaluate_choice(out: Path, split: str, name: str, make_choice, samples: int 
     their variants with it."""
     folds = {fold: names for fold, names in split_folds(split).items()
              if only is None or fold in only}
-    probes = linked_folder(out / f"probes-{split}",
-                           [f"{probe}.exr" for probe in (VALIDATION_PROBES if split == "validation"
-                                                         else TEST_PROBES)], shared / "probes")
+    probes = split_probe_folder(out, split, shared)
     for fold, names in folds.items():
         kept = [set_name for set_name in names if set_name not in excluded]
         target = out / fold / name

@@ -135,6 +135,12 @@ def training_probes(shared: Path) -> list[str]:
     return sorted(p.stem for p in (shared / "probes").glob("*.exr") if p.stem not in held_out)
 
 
+def training_probe_folder(work: Path, shared: Path) -> Path:
+    """work/probes-training: links to the probes of training_probes."""
+    return linked_folder(work / "probes-training",
+                         [f"{name}.exr" for name in training_probes(shared)], shared / "probes")
+
+
 def run_folds(network: Network) -> tuple[str, ...]:
     """The runs of ``network``: one per validation fold and "all" when it trains on real sets,
     else "all" alone."""
@@ -180,9 +186,13 @@ def make_sets(work: Path, size: Size, parallel: int) -> None:
         list(pool.map(make, jobs))
 
 
+def maps_folder(work: Path, network: Network, fold: str) -> Path:
+    return work / "maps" / f"{network.name}-{fold}"
+
+
 def run_maps(work: Path, network: Network, fold: str, shared: Path) -> Path:
     """work/maps/<network>-<fold>: links to the material folders the run trains on."""
-    folder = work / "maps" / f"{network.name}-{fold}"
+    folder = maps_folder(work, network, fold)
     for material_class in network.classes:
         for seed in network.seeds:
             sets = work / "sets" / f"{material_class}-{seed}"
@@ -196,7 +206,7 @@ def train_command(work: Path, network: Network, fold: str, size: Size, device: s
     """The sa-train call of one run."""
     epochs = total_steps(network, size) * size.batch_size // size.epoch_samples
     return [str(BIN / "sa-train"),
-            "--labeled-maps", str(work / "maps" / f"{network.name}-{fold}"),
+            "--labeled-maps", str(maps_folder(work, network, fold)),
             "--probes", str(work / "probes-training"),
             "--out", str(run_folder(work, network, fold)),
             "--network", size.network, "--render-size", str(size.render_size),
@@ -262,7 +272,7 @@ def train_runs(work: Path, size: Size, device: str, minutes: float, parallel: in
 def export(work: Path, network: Network, fold: str, size_name: str, command: str) -> Path:
     """files/<fold>/svbrdf-<network>.safetensors from the run's newest checkpoint (written
     again only when the run has a newer one)."""
-    path = work / "files" / fold / f"svbrdf-{network.name}.safetensors"
+    path = exported_file(work, network, fold)
     newest = checkpoint_files(run_folder(work, network, fold) / "checkpoints")
     if not newest:
         raise InputError(run_folder(work, network, fold), "no checkpoint to export: give the "
@@ -281,10 +291,14 @@ def export(work: Path, network: Network, fold: str, size_name: str, command: str
     return path
 
 
+def exported_file(work: Path, network: Network, fold: str) -> Path:
+    """work/files/<fold>/svbrdf-<network>.safetensors: the export of one run."""
+    return work / "files" / fold / f"svbrdf-{network.name}.safetensors"
+
+
 def validation_file(work: Path, network: Network, fold: str) -> Path:
     """The file that ``network`` is measured with on ``fold`` (a validation fold or "test")."""
-    own = fold in FOLDS and network.real_sets
-    return work / "files" / (fold if own else "all") / f"svbrdf-{network.name}.safetensors"
+    return exported_file(work, network, fold if fold in FOLDS and network.real_sets else "all")
 
 
 def evaluate(work: Path, split: str, size: Size, shared: Path, device: str) -> dict:
@@ -349,8 +363,7 @@ def main(out, size_name, train_minutes, device, parallel, shared):
             if not (shared / folder).is_dir():
                 raise InputError(shared / folder, "not found (the shared data folder is needed)")
         work.mkdir(parents=True, exist_ok=True)
-        linked_folder(work / "probes-training",
-                      [f"{name}.exr" for name in training_probes(shared)], shared / "probes")
+        training_probe_folder(work, shared)
         make_sets(work, size, parallel)
         record = train_runs(work, size, device, train_minutes, parallel, shared)
         for network in RECIPE:
