@@ -1,20 +1,22 @@
-"""Try: the plastic network's lobe reader (its homogeneous network) fine-tuned with real sets, fold
-by fold.
+"""Try: networks of the plastic file (by default its lobe reader, the homogeneous network)
+fine-tuned with real sets, fold by fold.
 
 On the real-set validation most of the naive baseline's relit error is on metals (about 60% of
 it, docs/experiments/2026-12-05-fitted-heads-on-real-validation.md), where the plastic network's
 lobe is no better than the baseline's (its procedural training never showed a metal). For each
-validation fold of scripts/real_validation.py, the shipped plastic file's homogeneous network is
+validation fold of scripts/real_validation.py, the shipped plastic file's ``--networks`` are
 fine-tuned by sa-train with the relit loss on procedural plastic and metal sets and the real sets
 of the other three folds (each real set linked ``--real-copies`` times, so that a minibatch holds
 some), each with its own specular pair, under the training probes; then measured on the fold's
 validation photos (the same photos as the shipped files'), beside the shipped plastic file.
 With ``--dielectrics-only`` the training sees no metal: no procedural metal sets, and no real
 set whose relative specular albedo exceeds METAL_RELATIVE_SPECULAR (a metal's, whose reduced
-diffuse albedo is the floor).
+diffuse albedo is the floor). ``--networks albedo,normal --relit-partners estimate`` fine-tunes
+the map networks instead, each relit beside the frozen lobe reader's own estimate: the real
+sets' albedos and relief, which procedural sets lack.
 
-    .venv/bin/python experiments/plastic_lobe_on_real_folds.py --out OUT [--steps 800] \
-        [--folds fold1,fold2,fold3,fold4]
+    .venv/bin/python experiments/plastic_on_real_folds.py --out OUT [--steps 800] \
+        [--folds fold1,fold2,fold3,fold4] [--networks homogeneous] [--relit-partners truth]
 """
 
 import subprocess
@@ -83,10 +85,15 @@ def fold_maps(out: Path, fold: str, copies: int, dielectrics_only: bool) -> Path
 @click.option("--real-copies", default=6, show_default=True)
 @click.option("--folds", default=",".join(FOLDS), show_default=True)
 @click.option("--dielectrics-only", is_flag=True, help="Train on no metal (module docstring).")
-def main(out, steps, real_copies, folds, dielectrics_only):
+@click.option("--networks", default="homogeneous", show_default=True,
+              help="sa-train --train-networks.")
+@click.option("--relit-partners", type=click.Choice(["truth", "estimate"]), default="truth",
+              show_default=True, help="sa-train --relit-partners.")
+def main(out, steps, real_copies, folds, dielectrics_only, networks, relit_partners):
     out = Path(out)
     probes = training_probe_folder(out, SHARED)
-    name = "plastic+real-lobe" + ("-dielectrics" if dielectrics_only else "")
+    name = ("plastic+real-" + ("lobe" if networks == "homogeneous" else networks.replace(",", "+"))
+            + ("-dielectrics" if dielectrics_only else ""))
     folds = tuple(folds.split(","))
     for fold in folds:
         model = out / "files" / name / fold / "svbrdf-plastic.safetensors"
@@ -94,7 +101,8 @@ def main(out, steps, real_copies, folds, dielectrics_only):
             run = out / "runs" / name / fold
             subprocess.run([str(BIN / "sa-train"),
                             "--init-from", str(shipped_model_path("plastic")),
-                            "--train-networks", "homogeneous", "--own-specular",
+                            "--train-networks", networks, "--own-specular",
+                            "--relit-partners", relit_partners,
                             "--labeled-maps", str(fold_maps(out, fold, real_copies,
                                                             dielectrics_only)),
                             "--probes", str(probes), "--out", str(run), "--network", "compact",
@@ -104,8 +112,10 @@ def main(out, steps, real_copies, folds, dielectrics_only):
                             "--epoch-samples", "3200", "--checkpoint-every", "200",
                             "--log-every", "50"], check=True)
             save_model(load_network(run), model, {
-                "class": "plastic", "recipe": f"experiments/plastic_lobe_on_real_folds.py "
-                                              f"--steps {steps} --real-copies {real_copies}"
+                "class": "plastic", "recipe": f"experiments/plastic_on_real_folds.py "
+                                              f"--steps {steps} --real-copies {real_copies} "
+                                              f"--networks {networks} "
+                                              f"--relit-partners {relit_partners}"
                                               + (" --dielectrics-only" if dielectrics_only
                                                  else "")})
     evaluate_choice(out, "validation", name, lambda fold: network_choice(
