@@ -38,6 +38,7 @@ from release import training_probe_folder  # noqa: E402
 from render.materials.reduced_svbrdf import load_material  # noqa: E402
 from train.estimation.network_choice import network_choice  # noqa: E402
 from train.networks.model_files import load_network, save_model, shipped_model_path  # noqa: E402
+from train.training.trainer import RELIT_PARTNERS  # noqa: E402
 
 BIN = Path(sys.executable).parent
 PROCEDURAL = {"plastic": (0, 2, 3, 4), "metal": (0, 2)}
@@ -87,7 +88,7 @@ def fold_maps(out: Path, fold: str, copies: int, dielectrics_only: bool) -> Path
 @click.option("--dielectrics-only", is_flag=True, help="Train on no metal (module docstring).")
 @click.option("--networks", default="homogeneous", show_default=True,
               help="sa-train --train-networks.")
-@click.option("--relit-partners", type=click.Choice(["truth", "estimate"]), default="truth",
+@click.option("--relit-partners", type=click.Choice(RELIT_PARTNERS), default="truth",
               show_default=True, help="sa-train --relit-partners.")
 def main(out, steps, real_copies, folds, dielectrics_only, networks, relit_partners):
     out = Path(out)
