@@ -1,6 +1,6 @@
 """Benchmark of SVBRDF-net inference: milliseconds per photo (network forward pass only, batch
 of one, after warm-up) for the paper's, the compact (the shipped models: with a U-Net albedo
-network, as wood, metal and general have, or a photo-affine one, as plastic has) and the small
+network, as wood and metal have, or a photo-affine one, as plastic has) and the small
 configuration. Prints JSON.
 
     python benchmarks/estimate_speed.py [--device cpu|cuda] [--repeats 10]

@@ -1,5 +1,5 @@
-"""Benchmark of full-resolution maps (train.estimation.full_resolution) with the shipped general
-model: seconds per photo for a 1024x1024 and a 2048x1536 photo (the bundled photo resized, so
+"""Benchmark of full-resolution maps (train.estimation.full_resolution) with the shipped metal
+model (a U-Net albedo network, which runs in tiles): seconds per photo for a 1024x1024 and a 2048x1536 photo (the bundled photo resized, so
 the network sees texture), and the process's peak resident memory. Prints JSON.
 
     python benchmarks/full_resolution_speed.py [--device cpu|cuda] [--repeats 2]
@@ -27,7 +27,7 @@ PHOTO = Path(__file__).resolve().parent.parent / "scenes" / "photos" / "brick-re
 @click.option("--device", default="cpu", show_default=True)
 @click.option("--repeats", default=2, show_default=True)
 def main(device, repeats):
-    net = load_network(shipped_model_path("general"), torch.device(device))
+    net = load_network(shipped_model_path("metal"), torch.device(device))
     base = read_linear_photo(PHOTO)
     results = []
     for width, height in ((1024, 1024), (2048, 1536)):
@@ -42,7 +42,7 @@ def main(device, repeats):
                         "megapixels_per_second": round(width * height / 1e6 / seconds, 3)})
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(json.dumps({"device": device, "machine": f"{platform.machine()}, {os.cpu_count()} cores",
-                      "torch_threads": torch.get_num_threads(), "model": "general (compact)",
+                      "torch_threads": torch.get_num_threads(), "model": "metal (compact)",
                       "tile": net.config.input_size, "overlap": TILE_OVERLAP,
                       "results": results, "peak_resident_mib": round(peak_mib)}, indent=2))
 

@@ -7,7 +7,7 @@ optimizer step, in one run. Prints JSON (median milliseconds over --repeats step
         [--device cpu|cuda]
 
 Data: the bundled material sets (labeled) and photos (unlabeled), the bundled probes. The
-compact network starts from the shipped general model, so that its provisional predictions are
+compact network starts from the shipped metal model, so that its provisional predictions are
 those of a trained network: an untrained one predicts normals spread over the hemisphere, which
 the torch renderer's tables must then cover (docs/performance.md).
 """
@@ -55,7 +55,7 @@ def main(network, batch, repeats, device):
         run = Run(TrainConfig(out=out, probes=str(REPO / "probes"),
                               labeled_maps=str(REPO / "scenes" / "materials"),
                               unlabeled=str(REPO / "scenes" / "photos"), network=config,
-                              init_from=(str(shipped_model_path("general"))
+                              init_from=(str(shipped_model_path("metal"))
                                          if network == "compact" else None),
                               batch_size=batch, render_size=max(2 * config.input_size, 128),
                               epoch_samples=batch, device=device))

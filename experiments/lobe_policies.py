@@ -38,7 +38,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 from real_validation import (  # noqa: E402
     FOLDS,
     SHARED,
-    SHIPPED_TRAINING_SETS,
     linked_folder,
     material_set,
     split_probe_folder,
@@ -80,7 +79,7 @@ def cache_fold(out: Path, fold: str, samples: int, relights: int) -> list[dict]:
     path = out / "cache" / f"{fold}.pt"
     if path.is_file():
         return torch.load(path, weights_only=True)
-    kept = [name for name in FOLDS[fold] if name not in SHIPPED_TRAINING_SETS]
+    kept = list(FOLDS[fold])
     cfg = EvaluationConfig(out=str(out / fold), probes=str(split_probe_folder(out, "validation")),
                            materials=str(linked_folder(out / "sets" / fold, kept,
                                                        SHARED / "svbrdfs")),

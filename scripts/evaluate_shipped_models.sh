@@ -2,9 +2,7 @@
 # The held-out evaluation of the shipped models (models/README.md), on this CPU.
 # Held-out data, never used in training:
 #   - material sets: make-materials seed 1 (training used seeds 0 and 2-8), 40 per class, and
-#     the real set materialx_wood (wood); the general network is also tested on
-#     godot_aluminium, a real set without a metalness map, which the reduction makes a
-#     dielectric, so it is not in the metal network's test;
+#     the real set materialx_wood (wood);
 #   - probes: the 8 probes of HELD_OUT_PROBES (training used the other 26 shared probes).
 # The 40 sets of a class are split into 4 groups of 10; group g is rendered with Mitsuba under
 # the probe pair g (render-dataset, 1 rotation, a 512 px render per set and probe, one 256 px
@@ -18,9 +16,8 @@
 # same 40 renders and N more sets of seed 1 (indices 40 to 39 + N), N / 4 to each probe pair,
 # two renders each, all of them evaluated ($WORK/eval/<class>-larger).
 #
-# CLASSES (default "wood plastic metal") names the class networks to test; the general
-# network is tested only when all three are named (its test holds every class and
-# godot_aluminium). Re-run with the same WORK: finished renders are kept.
+# CLASSES (default "wood plastic metal") names the class networks to test. Re-run with the
+# same WORK: finished renders are kept.
 #
 #   [CLASSES=plastic] [MORE_SETS=80] bash scripts/evaluate_shipped_models.sh SHARED_DATA WORK \
 #       [MODELS_DIR]
@@ -31,10 +28,6 @@ MORE_SETS=${MORE_SETS:-0}
 if (( MORE_SETS % 4 != 0 )); then echo "MORE_SETS: $MORE_SETS is not a multiple of 4" >&2; exit 2; fi
 for class in $CLASSES; do
     case $class in wood|plastic|metal) ;; *) echo "CLASSES: unknown class $class" >&2; exit 2;; esac
-done
-ALL=true  # all three classes named
-for class in wood plastic metal; do
-    [[ " $CLASSES " == *" $class "* ]] || ALL=false
 done
 PAIRS=("aristea_wreck_puresky brown_photostudio_02" "circus_arena dikhololo_night"
        "env-lab kiara_1_dawn" "modern_buildings_2 rainforest_trail")
@@ -53,7 +46,7 @@ for class in $CLASSES; do
     fi
 done
 real_sets() {  # the real held-out sets of a class
-    case $1 in wood) echo materialx_wood;; aluminium) echo godot_aluminium;; esac
+    case $1 in wood) echo materialx_wood;; esac
 }
 link_sets() {  # link_sets GROUP FOLDER CLASS FIRST LAST: sets FIRST..LAST of FOLDER into GROUP
     local i
@@ -66,14 +59,10 @@ render_group() {  # render_group GROUP G: the sets of groups/GROUP under probe p
         --out "$WORK/heldout/$1" --resolution 256 --render-size 512 --rotations 1 \
         --crops 1 --spp 128 --test-materials 0 --test-probes 0
 }
-RENDERED=$CLASSES
-$ALL && RENDERED="$RENDERED aluminium"
-for class in $RENDERED; do
+for class in $CLASSES; do
     for g in 0 1 2 3; do
         mkdir -p "$WORK/groups/$class-$g"
-        if [ "$class" != aluminium ]; then
-            link_sets "$class-$g" "$WORK/sets/$class" "$class" $((g * 10)) $((g * 10 + 9))
-        fi
+        link_sets "$class-$g" "$WORK/sets/$class" "$class" $((g * 10)) $((g * 10 + 9))
         for set in $(real_sets "$class"); do
             ln -sfn "$(realpath "$SHARED/svbrdfs/$set")" "$WORK/groups/$class-$g/"
         done
@@ -109,7 +98,3 @@ for class in $CLASSES; do
             --out "$WORK/eval/$class-larger" > "$WORK/eval/$class-larger.json"
     fi
 done
-$ALL || exit 0
-"$BIN/sa-evaluate" --model "$MODELS/svbrdf-general.safetensors" \
-    $(datasets wood plastic metal aluminium) --split all --probes "$WORK/probes" --samples 96 \
-    --out "$WORK/eval/general" > "$WORK/eval/general.json"

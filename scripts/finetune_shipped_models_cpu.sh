@@ -4,8 +4,7 @@
 # INIT_DIR/svbrdf-CLASS.safetensors, an earlier fine-tune's output), with the
 # relit loss (sa-train --relit-loss-weight) added to the parameter losses; labeled minibatches
 # rendered on the fly under the 26 training probes from 200 procedural sets of the class
-# (make-materials seeds 0, 2, 3, 4; seed 1 makes the held-out sets), or for `general` from the
-# general network's sets (seeds 0, 2, 3 of each class and the real sets in REAL_SETS). The runs
+# (make-materials seeds 0, 2, 3, 4; seed 1 makes the held-out sets). The runs
 # live in OUT_DIR/runs/CLASS; re-run with the same OUT_DIR after an interruption, it resumes
 # each run from its newest checkpoint.
 #
@@ -20,7 +19,7 @@
 # RELIT_PARTNERS (truth or estimate: sa-train --relit-partners; default truth),
 # RELIT_FORM (log or rmse: sa-train --relit-loss-form; default log),
 # PROBE_TILTS (tilted copies of each training probe: sa-train --probe-tilts; default 0),
-# REAL_SETS (general only: a folder of the real sets the card lists), SEEDS (a class's
+# SEEDS (a class's
 # make-materials seeds, each SEED or SEED:COUNT sets, default "0 2 3 4" of 50 sets each).
 #
 #   bash scripts/finetune_shipped_models_cpu.sh WORK PROBES_TRAIN OUT_DIR CLASS...
@@ -49,14 +48,7 @@ link_sets() {  # link_sets CLASS SEED[:COUNT]...: make missing sets, link them i
 for class in "$@"; do
     MAPS="$WORK/maps/$class"
     mkdir -p "$MAPS"
-    if [ "$class" = general ]; then
-        for each in wood plastic metal; do link_sets "$each" 0 2 3; done
-        for set in "${REAL_SETS:?REAL_SETS is needed for general}"/*/; do
-            ln -sfn "$(realpath "$set")" "$MAPS/"
-        done
-    else
-        link_sets "$class" ${SEEDS:-0 2 3 4}
-    fi
+    link_sets "$class" ${SEEDS:-0 2 3 4}
     run="$OUT_DIR/runs/$class"  # each stage (OUT_DIR) has its own run folders
     init="$INIT_DIR/svbrdf-$class.safetensors"
     albedo_network=${ALBEDO_NETWORK:-$("$BIN/python" -c "import sys

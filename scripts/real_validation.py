@@ -12,7 +12,8 @@ For each fold and each network choice (``--choices``: the shipped networks by cl
 sa-evaluate (train.evaluation.estimate_evaluation) on ``--samples`` photos rendered by the
 torch renderer from the fold's sets, under the fold's probes: the same photos for every choice,
 each with the naive baseline's errors beside the model's. Sets a model was trained on
-(``--exclude``) are left out of every fold. Writes into ``--out``:
+(``--exclude``; none of the shipped files' sets) are left out of every fold. Writes into
+``--out``:
 
     <fold>/<choice>/results.json, figure.png   sa-evaluate's own output (kept: a re-run
                                                continues where it stopped)
@@ -22,7 +23,7 @@ each with the naive baseline's errors beside the model's. Sets a model was train
     per_set.png                                the relit ratio of every set by every choice
 
     .venv/bin/python scripts/real_validation.py --out OUT [--split validation|test] \
-        [--choices general,wood,plastic,metal] [--samples 60] [--exclude SET,...]
+        [--choices wood,plastic,metal] [--samples 60] [--exclude SET,...]
 """
 
 import json
@@ -36,6 +37,7 @@ from matplotlib.figure import Figure
 from render.common.atomic_files import atomic_path
 from train.estimation.network_choice import network_choice
 from train.evaluation.estimate_evaluation import EvaluationConfig, run
+from train.networks.model_files import SHIPPED
 
 SHARED = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
 TEST_SETS = ("ambientcg_Metal030", "nvidia-mdl_metal_diamond_pattern", "ambientcg_Rock053",
@@ -54,10 +56,6 @@ FOLDS = {
 """The validation folds: each holds metal, stone or brick, and wood or another kind."""
 VALIDATION_PROBES = ("brown_photostudio_02", "circus_arena", "kiara_1_dawn", "rainforest_trail")
 TEST_PROBES = ("aristea_wreck_puresky", "dikhololo_night", "env-lab", "modern_buildings_2")
-SHIPPED_TRAINING_SETS = ("godot_cheese", "godot_marble", "godot_rock", "godot_sand",
-                         "godot_texture_bricks", "godot_texture_rock", "godot_texture_wood",
-                         "materialx_brick", "pbrone_bricks", "polyhaven_fabric_pattern_07")
-"""The real sets the shipped general network was trained on (models/README.md)."""
 
 
 def linked_folder(folder, names, source):
@@ -163,7 +161,7 @@ def split_probe_folder(out: Path, split: str, shared: Path = SHARED) -> Path:
 
 
 def evaluate_choice(out: Path, split: str, name: str, make_choice, samples: int = 60,
-                    relights: int = 3, excluded=SHIPPED_TRAINING_SETS,
+                    relights: int = 3, excluded=(),
                     shared: Path = SHARED, only: tuple[str, ...] | None = None,
                     device: str = "cpu") -> None:
     """sa-evaluate the network choice ``make_choice(fold)`` gives (train.estimation.
@@ -191,7 +189,7 @@ def evaluate_choice(out: Path, split: str, name: str, make_choice, samples: int 
 def report_beside_shipped(out: Path, names: list[str]) -> None:
     """Summarize the validation in ``out`` for the shipped choices evaluated there and the
     experiment's ``names``, and print the table."""
-    shipped = [c for c in ("general", "wood", "plastic", "metal")
+    shipped = [c for c in SHIPPED
                if (out / "fold1" / c / "results.json").is_file()]
     summarize(out, list(FOLDS), shipped + names)
     print((out / "table.md").read_text())
@@ -201,12 +199,12 @@ def report_beside_shipped(out: Path, names: list[str]) -> None:
 @click.option("--out", required=True, type=click.Path(), help="Output folder (resumable).")
 @click.option("--split", type=click.Choice(("validation", "test")), default="validation",
               show_default=True)
-@click.option("--choices", default="general,wood,plastic,metal", show_default=True,
+@click.option("--choices", default=",".join(SHIPPED), show_default=True,
               help="Network choices, as sa-evaluate's --class.")
 @click.option("--samples", default=60, show_default=True, help="Photos per fold.")
 @click.option("--relights", default=3, show_default=True)
-@click.option("--exclude", default=",".join(SHIPPED_TRAINING_SETS), show_default=True,
-              help="Sets left out (those the evaluated networks were trained on).")
+@click.option("--exclude", default="", help="Sets left out (those the evaluated networks were "
+                                           "trained on; no shipped network trained on any).")
 @click.option("--shared", default=str(SHARED), show_default=True, type=click.Path(),
               help="The shared data folder (svbrdfs/, probes/).")
 def main(out, split, choices, samples, relights, exclude, shared):

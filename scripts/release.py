@@ -4,22 +4,19 @@ command from the repository and ``../shared/data`` (issue 50, "one reproducible 
     .venv/bin/python scripts/release.py --out WORK [--size full|toy] [--train-minutes M] \
         [--device cpu|cuda] [--parallel N] [--shared SHARED_DATA]
 
-RECIPE names the networks: the procedural sets each trains on (make-materials classes and
-seeds), whether it trains on real sets too, and its sa-train options; every run is one
-sa-train call from scratch, labeled minibatches rendered on the fly under TRAINING_PROBES (the
-shared probes less the 8 held out). The real sets are split by scripts/real_validation.py: a
-network that trains on real sets is trained once per validation fold, on the real sets of the
-other three folds (the fold's file is validated on that fold), and once on the sets of all four
-(the file released, which the test measures); a network without real sets is trained once and
-validated on every fold. No run sees a test set or a held-out probe.
+RECIPE names the networks: the procedural sets each trains on (make-materials class and
+seeds) and its sa-train options; every network is one sa-train run from scratch, labeled
+minibatches rendered on the fly under the training probes (the shared probes less the 8 that
+scripts/real_validation.py holds out). No run sees a real set or a held-out probe: the real
+sets are the validation folds and the test of scripts/real_validation.py.
 
 Into WORK, each step kept where done, so that the same command continues a cut-off release:
 
     sets/<class>-<seed>/          make-materials sets
-    maps/<network>-<fold>/        links to the material folders of one run
-    runs/<network>-<fold>/        sa-train runs (each resumes from its newest checkpoint)
-    files/<fold>/svbrdf-<network>.safetensors   each run's newest checkpoint, exported (fold
-                                  "all": the released files)
+    maps/<network>/               links to the material folders of one run
+    runs/<network>/               sa-train runs (each resumes from its newest checkpoint)
+    files/svbrdf-<network>.safetensors   each run's newest checkpoint, exported: the released
+                                  files
     validation/, test/            scripts/real_validation.py evaluations and tables, on
                                   ``--device`` too (an evaluation of an older export is made
                                   again)
@@ -62,7 +59,6 @@ from train.networks.model_files import FORMAT, load_network, model_metadata, sav
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from real_validation import (  # noqa: E402
-    FOLDS,
     SHARED,
     TEST_PROBES,
     VALIDATION_PROBES,
@@ -81,26 +77,21 @@ class Network:
     """One released file, svbrdf-<name>.safetensors."""
 
     name: str
-    classes: tuple[str, ...]
-    """make-materials classes of its procedural sets."""
+    """Its material class too: make-materials --class of its sets."""
     seeds: tuple[int, ...]
-    """make-materials seeds of each class (seed 1 makes the procedural test's sets)."""
-    real_sets: bool
-    """It trains on the real sets of the training folds too."""
+    """make-materials seeds of its sets (seed 1 makes the procedural test's sets)."""
     steps: int
     """Optimizer steps at size full."""
     options: tuple[str, ...] = ()
     """sa-train options beyond the common ones (Size, train_command)."""
 
 
+SEEDS = (0, 2, 3, 4, 5, 6, 7, 8)
 RECIPE = (
-    Network("wood", ("wood",), (0, 2, 3, 4, 5, 6, 7, 8), False, 4600, ("--own-specular",)),
-    Network("plastic", ("plastic",), (0, 2, 3, 4, 5, 6, 7, 8), False, 4600,
+    Network("wood", SEEDS, 4600, ("--own-specular",)),
+    Network("plastic", SEEDS, 4600,
             ("--mix-specular", "--albedo-network", "photo-affine", "--relit-loss-weight", "300")),
-    Network("metal", ("metal",), (0, 2, 3, 4, 5, 6, 7, 8), False, 3200,
-            ("--own-specular", "--relit-loss-weight", "300")),
-    Network("general", ("wood", "plastic", "metal"), (0, 2, 3), True, 4600,
-            ("--mix-specular", "--relit-loss-weight", "300")),
+    Network("metal", SEEDS, 3200, ("--own-specular", "--relit-loss-weight", "300")),
 )
 """The networks of a release and how each is trained."""
 
@@ -141,17 +132,6 @@ def training_probe_folder(work: Path, shared: Path) -> Path:
                          [f"{name}.exr" for name in training_probes(shared)], shared / "probes")
 
 
-def run_folds(network: Network) -> tuple[str, ...]:
-    """The runs of ``network``: one per validation fold and "all" when it trains on real sets,
-    else "all" alone."""
-    return (*FOLDS, "all") if network.real_sets else ("all",)
-
-
-def real_training_sets(fold: str) -> list[str]:
-    """The real sets a run for ``fold`` trains on: the validation folds' sets but its own."""
-    return [name for other, names in FOLDS.items() if other != fold for name in names]
-
-
 def total_steps(network: Network, size: Size) -> int:
     """Optimizer steps of a run: whole epochs of ``size.epoch_samples``."""
     steps = size.steps or network.steps
@@ -172,7 +152,7 @@ def steps_reached(run: Path) -> int:
 
 def make_sets(work: Path, size: Size, parallel: int) -> None:
     """make-materials every class and seed of RECIPE into work/sets (kept sets are skipped)."""
-    jobs = sorted({(c, s) for network in RECIPE for c in network.classes for s in network.seeds})
+    jobs = [(network.name, seed) for network in RECIPE for seed in network.seeds]
 
     def make(job):
         material_class, seed = job
@@ -186,29 +166,22 @@ def make_sets(work: Path, size: Size, parallel: int) -> None:
         list(pool.map(make, jobs))
 
 
-def maps_folder(work: Path, network: Network, fold: str) -> Path:
-    return work / "maps" / f"{network.name}-{fold}"
-
-
-def run_maps(work: Path, network: Network, fold: str, shared: Path) -> Path:
-    """work/maps/<network>-<fold>: links to the material folders the run trains on."""
-    folder = maps_folder(work, network, fold)
-    for material_class in network.classes:
-        for seed in network.seeds:
-            sets = work / "sets" / f"{material_class}-{seed}"
-            linked_folder(folder, [p.name for p in sorted(sets.iterdir()) if p.is_dir()], sets)
-    if network.real_sets:
-        linked_folder(folder, real_training_sets(fold), shared / "svbrdfs")
+def maps_folder(work: Path, network: Network) -> Path:
+    """work/maps/<network>: links to the material folders the network trains on."""
+    folder = work / "maps" / network.name
+    for seed in network.seeds:
+        sets = work / "sets" / f"{network.name}-{seed}"
+        linked_folder(folder, [p.name for p in sorted(sets.iterdir()) if p.is_dir()], sets)
     return folder
 
 
-def train_command(work: Path, network: Network, fold: str, size: Size, device: str) -> list[str]:
+def train_command(work: Path, network: Network, size: Size, device: str) -> list[str]:
     """The sa-train call of one run."""
     epochs = total_steps(network, size) * size.batch_size // size.epoch_samples
     return [str(BIN / "sa-train"),
-            "--labeled-maps", str(maps_folder(work, network, fold)),
+            "--labeled-maps", str(work / "maps" / network.name),
             "--probes", str(work / "probes-training"),
-            "--out", str(run_folder(work, network, fold)),
+            "--out", str(run_folder(work, network)),
             "--network", size.network, "--render-size", str(size.render_size),
             "--labeled-epochs", str(epochs), "--self-augmented-epochs", "0",
             "--epoch-samples", str(size.epoch_samples), "--batch-size", str(size.batch_size),
@@ -217,36 +190,35 @@ def train_command(work: Path, network: Network, fold: str, size: Size, device: s
             "--device", device, *network.options]
 
 
-def run_folder(work: Path, network: Network, fold: str) -> Path:
-    return work / "runs" / f"{network.name}-{fold}"
+def run_folder(work: Path, network: Network) -> Path:
+    return work / "runs" / network.name
 
 
-def train_runs(work: Path, size: Size, device: str, minutes: float, parallel: int,
-               shared: Path) -> dict[str, dict]:
-    """Train (or continue) every run within ``minutes``; returns {run: steps, seconds}."""
-    runs = [(network, fold) for network in RECIPE for fold in run_folds(network)]
-    for network, fold in runs:
-        run_maps(work, network, fold, shared)
+def train_runs(work: Path, size: Size, device: str, minutes: float,
+               parallel: int) -> dict[str, dict]:
+    """Train (or continue) every network's run within ``minutes``; returns {network: steps,
+    seconds}."""
+    for network in RECIPE:
+        maps_folder(work, network)
     deadline = time.monotonic() + 60.0 * minutes
     threads = str(max(1, (os.cpu_count() or 1) // max(1, parallel)))
     record = {}
 
-    def steps_left(run):
-        network, fold = run
-        return max(0, total_steps(network, size) - steps_reached(run_folder(work, *run)))
+    def steps_left(network):
+        return max(0, total_steps(network, size) - steps_reached(run_folder(work, network)))
 
-    def train(run):
-        network, fold = run
-        name = f"{network.name}-{fold}"
-        left_now = sum(steps_left(r) for r in runs)
-        allowance = (deadline - time.monotonic()) * parallel * steps_left(run) / max(1, left_now)
+    def train(network):
+        left_now = sum(steps_left(n) for n in RECIPE)
+        allowance = (deadline - time.monotonic()) * parallel * steps_left(network) / max(
+            1, left_now)
         allowance = min(allowance, deadline - time.monotonic())
         start = time.monotonic()
-        run_folder(work, *run).parent.mkdir(parents=True, exist_ok=True)
-        if steps_left(run) and allowance > 0:
-            log = run_folder(work, *run).with_suffix(".log")
+        run = run_folder(work, network)
+        run.parent.mkdir(parents=True, exist_ok=True)
+        if steps_left(network) and allowance > 0:
+            log = run.with_suffix(".log")
             with open(log, "a") as output:
-                process = subprocess.Popen(train_command(work, network, fold, size, device),
+                process = subprocess.Popen(train_command(work, network, size, device),
                                            stdout=output, stderr=subprocess.STDOUT,
                                            env=os.environ | {"OMP_NUM_THREADS": threads})
                 try:
@@ -255,28 +227,28 @@ def train_runs(work: Path, size: Size, device: str, minutes: float, parallel: in
                 except subprocess.TimeoutExpired:
                     process.terminate()  # checkpoints are written whole: the newest is kept
                     process.wait()
-        timing = run_folder(work, *run).with_suffix(".seconds")
+        timing = run.with_suffix(".seconds")
         seconds = (float(timing.read_text()) if timing.is_file() else 0.0) + (
             time.monotonic() - start)
         with atomic_path(timing) as tmp:
             tmp.write_text(f"{seconds:.1f}")
-        record[name] = {"steps": steps_reached(run_folder(work, *run)),
-                        "of_steps": total_steps(network, size), "seconds": round(seconds, 1)}
-        click.echo(json.dumps({"run": name, **record[name]}))
+        record[network.name] = {"steps": steps_reached(run), "of_steps": total_steps(network, size),
+                                "seconds": round(seconds, 1)}
+        click.echo(json.dumps({"run": network.name, **record[network.name]}))
 
     with ThreadPoolExecutor(max(1, parallel)) as pool:
-        list(pool.map(train, runs))
+        list(pool.map(train, RECIPE))
     return record
 
 
-def export(work: Path, network: Network, fold: str, size_name: str, command: str) -> Path:
-    """files/<fold>/svbrdf-<network>.safetensors from the run's newest checkpoint (written
-    again only when the run has a newer one)."""
-    path = exported_file(work, network, fold)
-    newest = checkpoint_files(run_folder(work, network, fold) / "checkpoints")
+def export(work: Path, network: Network, size_name: str, command: str) -> Path:
+    """files/svbrdf-<network>.safetensors from the run's newest checkpoint (written again only
+    when the run has a newer one)."""
+    path = exported_file(work, network)
+    newest = checkpoint_files(run_folder(work, network) / "checkpoints")
     if not newest:
-        raise InputError(run_folder(work, network, fold), "no checkpoint to export: give the "
-                                                          "training more minutes")
+        raise InputError(run_folder(work, network), "no checkpoint to export: give the "
+                                                    "training more minutes")
     if path.is_file() and model_metadata(path, FORMAT, "model").get(
             "trained_from") == newest[-1].name:
         return path
@@ -286,19 +258,13 @@ def export(work: Path, network: Network, fold: str, size_name: str, command: str
         "class": network.name, "trained_from": newest[-1].name,
         "command": command,
         "recipe": json.dumps(dataclasses.asdict(network)),
-        "real_sets": json.dumps(real_training_sets(fold) if network.real_sets else []),
         "steps": f"{checkpoint_step(newest[-1])} of {total_steps(network, SIZES[size_name])}"})
     return path
 
 
-def exported_file(work: Path, network: Network, fold: str) -> Path:
-    """work/files/<fold>/svbrdf-<network>.safetensors: the export of one run."""
-    return work / "files" / fold / f"svbrdf-{network.name}.safetensors"
-
-
-def validation_file(work: Path, network: Network, fold: str) -> Path:
-    """The file that ``network`` is measured with on ``fold`` (a validation fold or "test")."""
-    return exported_file(work, network, fold if fold in FOLDS and network.real_sets else "all")
+def exported_file(work: Path, network: Network) -> Path:
+    """work/files/svbrdf-<network>.safetensors: the export of one run."""
+    return work / "files" / f"svbrdf-{network.name}.safetensors"
 
 
 def evaluate(work: Path, split: str, size: Size, shared: Path, device: str) -> dict:
@@ -311,12 +277,12 @@ def evaluate(work: Path, split: str, size: Size, shared: Path, device: str) -> d
             config = out / fold / network.name / "config.json"
             if config.is_file():
                 models = json.loads(config.read_text()).get("models", {})
-                if file_digest(validation_file(work, network, fold)) not in models.values():
+                if file_digest(exported_file(work, network)) not in models.values():
                     shutil.rmtree(config.parent)
         evaluate_choice(out, split, network.name,
                         lambda fold, n=network: FixedNetwork(load_network(
-                            validation_file(work, n, fold), device)),
-                        size.photos, size.relights, excluded=(), shared=shared, device=device)
+                            exported_file(work, n), device)),
+                        size.photos, size.relights, shared=shared, device=device)
     return summarize(out, folds, [network.name for network in RECIPE])
 
 
@@ -365,10 +331,9 @@ def main(out, size_name, train_minutes, device, parallel, shared):
         work.mkdir(parents=True, exist_ok=True)
         training_probe_folder(work, shared)
         make_sets(work, size, parallel)
-        record = train_runs(work, size, device, train_minutes, parallel, shared)
+        record = train_runs(work, size, device, train_minutes, parallel)
         for network in RECIPE:
-            for fold in run_folds(network):
-                export(work, network, fold, size_name, command)
+            export(work, network, size_name, command)
         tables = {split: evaluate(work, split, size, shared, device)
                   for split in ("validation", "test")}
         write_card(work, command, record, tables)

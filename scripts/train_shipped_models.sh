@@ -1,25 +1,24 @@
 #!/usr/bin/env bash
-# Trains the shipped models (models/README.md) on one GPU, the four networks concurrently:
+# Trains the shipped models (models/README.md) on one GPU, the three networks concurrently:
 # procedural material sets per class (make-materials, 400 sets of 512 px each: 50 of each seed
-# in SEEDS; the general network 150 of each class and REAL_SETS), labeled
+# in SEEDS), labeled
 # minibatches rendered on the fly from them (sa-train --labeled-maps) under the training probes,
 # the `compact` network at 256 px.
 # Each run stops after MINUTES (default 6); its newest checkpoint (an epoch's end) is exported
 # as models/svbrdf-<name>.safetensors-like files into OUT_DIR; the runs live in
 # OUT_DIR/runs/<name>, so each stage (OUT_DIR) has its own.
 #
-# Environment: NAMES (networks to train, default all four); INIT (a folder of svbrdf-<name>
+# Environment: NAMES (networks to train, default all three); INIT (a folder of svbrdf-<name>
 # .safetensors files to start from: fine-tuning, see models/README.md); LEARNING_RATE.
 #
-#   bash scripts/train_shipped_models.sh WORK PROBES REAL_SETS OUT_DIR [MINUTES] [PYTHON]
+#   bash scripts/train_shipped_models.sh WORK PROBES OUT_DIR [MINUTES] [PYTHON]
 set -euo pipefail
-WORK=$1 PROBES=$2 REAL=$3 OUT_DIR=$4 MINUTES=${5:-6} PY=${6:-.venv/bin/python}
-NAMES=${NAMES:-wood plastic metal general} LEARNING_RATE=${LEARNING_RATE:-0.002}
+WORK=$1 PROBES=$2 OUT_DIR=$3 MINUTES=${4:-6} PY=${5:-.venv/bin/python}
+NAMES=${NAMES:-wood plastic metal} LEARNING_RATE=${LEARNING_RATE:-0.002}
 EPOCH_SAMPLES=3200  # 200 minibatches of 16: a checkpoint at every epoch's end
 SEEDS="0 2 3 4 5 6 7 8"  # seed 1 makes the held-out sets
 SETS_PER_SEED=50
-GENERAL_SEEDS="0 2 3"  # the general network: 150 sets per class (it loads them all at start)
-mkdir -p "$WORK/maps/general" "$OUT_DIR"
+mkdir -p "$OUT_DIR"
 for class in wood plastic metal; do
     for seed in $SEEDS; do
         "$PY" -m render.cli.make_materials --class "$class" --count "$SETS_PER_SEED" --seed "$seed" \
@@ -32,11 +31,9 @@ for class in wood plastic metal; do
     for seed in $SEEDS; do
         for set in "$WORK/sets/$class-$seed"/*/; do
             ln -sfn "$(realpath "$set")" "$WORK/maps/$class/"
-            case " $GENERAL_SEEDS " in *" $seed "*) ln -sfn "$(realpath "$set")" "$WORK/maps/general/";; esac
         done
     done
 done
-for set in "$REAL"/*/; do ln -sfn "$(realpath "$set")" "$WORK/maps/general/"; done
 for name in $NAMES; do
     init=()
     if [ -n "${INIT:-}" ]; then init=(--init-from "$INIT/svbrdf-$name.safetensors"); fi

@@ -95,7 +95,7 @@ def make_bad_inputs(root):
                                           np.ones((16, 16, 3), np.float32)))
     torch.save({"weights": torch.ones(2)}, inputs.foreign_model)
     inputs.pickle_model.write_bytes(_pickle_payload(root))
-    model = (REPO / "models" / "svbrdf-general.safetensors").read_bytes()
+    model = (REPO / "models" / "svbrdf-plastic.safetensors").read_bytes()
     inputs.truncated_model.write_bytes(model[:len(model) // 2])
     inputs.text_model.write_text("not a model\n")
     return inputs
@@ -167,7 +167,7 @@ def sa_validate(i, out):
 
 
 def sa_evaluate(i, out):
-    return ["--class", "general", "--materials", str(BUNDLED_MATERIALS), "--probes",
+    return ["--class", "plastic", "--materials", str(BUNDLED_MATERIALS), "--probes",
             str(BUNDLED_PROBES), "--out", str(out), "--samples", "1", "--relights", "1",
             "--sample-size", "32"]
 
@@ -327,13 +327,13 @@ CASES = [
     *[("sa-evaluate", *case) for case in [
         *_probe_cases(sa_evaluate)[:4], *_materials_cases(sa_evaluate, "--materials"),
         ("--dataset", "missing folder", lambda i, o: [
-            "--class", "general", "--dataset", str(i.missing), "--probes", str(BUNDLED_PROBES),
+            "--class", "plastic", "--dataset", str(i.missing), "--probes", str(BUNDLED_PROBES),
             "--out", str(o)], "missing", "not found"),
         ("--dataset", "a folder without index.json", lambda i, o: [
-            "--class", "general", "--dataset", str(BUNDLED_PROBES), "--probes",
+            "--class", "plastic", "--dataset", str(BUNDLED_PROBES), "--probes",
             str(BUNDLED_PROBES), "--out", str(o)], None, "no index.json"),
         ("--dataset", "a corrupt index.json", lambda i, o: [
-            "--class", "general", "--dataset", str(i.corrupt_index.parent), "--probes",
+            "--class", "plastic", "--dataset", str(i.corrupt_index.parent), "--probes",
             str(BUNDLED_PROBES), "--out", str(o)], "corrupt_index",
          "cannot read the dataset index"),
         *_model_cases(sa_evaluate), *_class_case(sa_evaluate), *_out_cases(sa_evaluate)]],

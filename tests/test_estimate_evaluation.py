@@ -264,8 +264,8 @@ def test_shipped_models_load_and_fit_the_size_limit(name):
 
 def test_sa_estimate_with_a_class_uses_that_shipped_network(tmp_path):
     photo = BUNDLED_PHOTO
-    report, material = estimate_bundled_photo(tmp_path / "est", "--class", "general")
-    assert report["model"].endswith("svbrdf-general.safetensors")
+    report, material = estimate_bundled_photo(tmp_path / "est", "--class", "metal")
+    assert report["model"].endswith("svbrdf-metal.safetensors")
     assert 0.02 <= material["ward_roughness"] <= 1.0
     result = CliRunner().invoke(sa_estimate, [str(photo), "--class", "wood", "--out",
                                               str(tmp_path / "wood")])

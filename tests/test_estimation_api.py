@@ -18,14 +18,14 @@ PHOTO = REPO / "scenes" / "photos" / "brick-reference-01.jpg"
 
 @pytest.fixture(scope="module")
 def estimator():
-    return Estimator(material_class="general", max_side=128)
+    return Estimator(material_class="wood", max_side=128)
 
 
 def test_the_api_gives_what_sa_estimate_writes(estimator, tmp_path):
     result = estimator.estimate_file(PHOTO)
     out = tmp_path / "out"
     with pytest.raises(SystemExit) as exit_code:
-        sa_estimate([str(PHOTO), "--class", "general", "--max-side", "128", "--out", str(out)])
+        sa_estimate([str(PHOTO), "--class", "wood", "--max-side", "128", "--out", str(out)])
     assert exit_code.value.code == 0
     folder = out / PHOTO.stem
     assert result.albedo.shape == (96, 128, 3) and result.albedo.dtype == np.float32
@@ -34,7 +34,7 @@ def test_the_api_gives_what_sa_estimate_writes(estimator, tmp_path):
                                atol=1e-6)  # float32 rounding of the (n + 1) / 2 encoding
     np.testing.assert_allclose(np.linalg.norm(result.normal, axis=-1), 1.0, rtol=1e-5)
     assert 0.02 <= result.roughness <= 1.0 and result.specular_albedo.shape == (3,)
-    assert result.network["model"].endswith("svbrdf-general.safetensors")
+    assert result.network["model"].endswith("svbrdf-wood.safetensors")
 
 
 def test_an_array_is_estimated_as_the_same_photo_read_from_a_file(estimator):
@@ -69,8 +69,8 @@ def chroma(pixels):
 
 def test_the_default_estimate_keeps_neutral_patches_neutral():
     """The photo's own chroma of the patches is about 0.005; an albedo that turns them blue
-    (0.3, the general network's, which the material classifier of an earlier release picked for
-    this photo) fails."""
+    (0.3, what the general network of an earlier release gave, which its material classifier
+    picked for this photo) fails."""
     from train.data.photos import read_linear_photo
     photo = read_linear_photo(PHOTO)
     albedo = Estimator().estimate(photo).albedo

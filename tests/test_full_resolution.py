@@ -19,7 +19,7 @@ BUNDLED_PHOTO = "scenes/photos/brick-reference-01.jpg"
 
 @pytest.fixture(scope="module")
 def net():
-    return load_network(shipped_model_path("general"), torch.device("cpu"))
+    return load_network(shipped_model_path("metal"), torch.device("cpu"))
 
 
 @pytest.mark.parametrize("length", [256, 300, 511, 768, 2048])

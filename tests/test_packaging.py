@@ -50,8 +50,8 @@ def test_the_wheel_holds_the_data_inside_the_project_packages(wheel):
     names = zipfile.ZipFile(wheel).namelist()
     assert all(name.split("/")[0] in ("render", "train") or ".dist-info/" in name
                for name in names), sorted({name.split("/")[0] for name in names})
-    for name in ("svbrdf-general.safetensors", "svbrdf-wood.safetensors",
-                 "svbrdf-plastic.safetensors", "svbrdf-metal.safetensors"):
+    for name in ("svbrdf-wood.safetensors", "svbrdf-plastic.safetensors",
+                 "svbrdf-metal.safetensors"):
         assert f"train/shipped_models/{name}" in names
     for name in ("park.exr", "env-studio.exr", "potsdamer_platz.exr"):
         assert f"render/bundled_probes/{name}" in names

@@ -1,5 +1,5 @@
-"""scripts/release.py: which sets each run trains on, and the release at toy size end to end
-(slow: CI runs it after the quick suite, ``make test-slow``)."""
+"""scripts/release.py: which sets and probes each run trains on, and the release at toy size end
+to end (slow: CI runs it after the quick suite, ``make test-slow``)."""
 
 import json
 import subprocess
@@ -11,28 +11,12 @@ from safetensors import safe_open
 from tests.conftest import REPO, SHARED_DATA, needs_shared
 
 sys.path.insert(0, str(REPO / "scripts"))
-from real_validation import FOLDS, TEST_PROBES, TEST_SETS, VALIDATION_PROBES  # noqa: E402
-from release import (  # noqa: E402
-    RECIPE,
-    SIZES,
-    real_training_sets,
-    run_folds,
-    total_steps,
-    training_probes,
-)
+from real_validation import FOLDS, TEST_PROBES, VALIDATION_PROBES  # noqa: E402
+from release import RECIPE, SIZES, total_steps, training_probes  # noqa: E402
 
 
-def test_a_fold_run_never_trains_on_its_fold_or_the_test():
-    for fold, names in FOLDS.items():
-        sets = set(real_training_sets(fold))
-        assert not sets & set(names) and not sets & set(TEST_SETS)
-        assert len(sets) == sum(len(n) for f, n in FOLDS.items() if f != fold)
-    assert not set(real_training_sets("all")) & set(TEST_SETS)
-
-
-def test_networks_on_real_sets_have_a_run_per_fold():
-    for network in RECIPE:
-        assert run_folds(network) == ((*FOLDS, "all") if network.real_sets else ("all",))
+def test_no_run_trains_on_the_procedural_test_seed():
+    assert all(1 not in network.seeds for network in RECIPE)  # make-materials seed 1: the test
 
 
 def test_runs_are_whole_epochs():
@@ -69,16 +53,18 @@ def test_the_release_at_toy_size(tmp_path):
     assert done.returncode == 0, done.stderr[-2000:]
     card = (work / "card.md").read_text()
     for network in RECIPE:
-        for fold in run_folds(network):
-            steps = total_steps(network, SIZES["toy"])
-            assert f"| {network.name}-{fold} | {steps} of {steps} |" in card
-            path = work / "files" / fold / f"svbrdf-{network.name}.safetensors"
-            with safe_open(str(path), framework="pt") as file:
-                metadata = file.metadata()
-            assert metadata["command"].startswith("scripts/release.py --size toy")
-            assert str(tmp_path) not in json.dumps(metadata)  # no machine's paths
-            real = json.loads(metadata["real_sets"])
-            assert real == (real_training_sets(fold) if network.real_sets else [])
+        steps = total_steps(network, SIZES["toy"])
+        assert f"| {network.name} | {steps} of {steps} |" in card
+        # it trains on its class's procedural sets of its seeds, and nothing else
+        trained_on = {path.resolve() for path in (work / "maps" / network.name).iterdir()}
+        assert trained_on == {path.resolve() for seed in network.seeds
+                              for path in (work / "sets" / f"{network.name}-{seed}").iterdir()
+                              if path.is_dir()}
+        path = work / "files" / f"svbrdf-{network.name}.safetensors"
+        with safe_open(str(path), framework="pt") as file:
+            metadata = file.metadata()
+        assert metadata["command"].startswith("scripts/release.py --size toy")
+        assert str(tmp_path) not in json.dumps(metadata)  # no machine's paths
         for fold in FOLDS:
             assert f"| {fold} | {network.name} | {SIZES['toy'].photos} |" in card
         assert f"| test | {network.name} | {SIZES['toy'].photos} |" in card

@@ -8,8 +8,9 @@
     result.specular_albedo, result.roughness   # the homogeneous Ward lobe
 
 An Estimator loads its network once (train.estimation.network_choice: a given model file or a
-shipped class network, by default DEFAULT_CLASS's) and estimates any number of photos. ``sa-estimate`` (train.estimation.batch) is
-built on it, so a script gets exactly what the command writes.
+shipped class network, by default DEFAULT_CLASS's) and estimates any number of photos.
+``sa-estimate`` (train.estimation.batch) is built on it, so a script gets exactly what the
+command writes.
 
 The estimate of a photo, as sa-evaluate measures it:
 1. its centre square at the network's input size S (train.data.photos.network_view) gives the
@@ -82,10 +83,9 @@ class Estimator:
     def __init__(self, model: str | Path | None = None, material_class: str = DEFAULT_CLASS,
                  device: str = "cpu", max_side: int = MAX_SIDE):
         """``model``: a model file (.safetensors), an sa-train checkpoint (.pt) or a run folder;
-        without one, the shipped network of ``material_class`` (general, wood, plastic,
-        metal). ``device``:
-        the torch device of the networks. ``max_side``: the longest side (px) of the maps; a
-        smaller photo keeps its own size."""
+        without one, the shipped network of ``material_class`` (wood, plastic, metal).
+        ``device``: the torch device of the networks. ``max_side``: the longest side (px) of
+        the maps; a smaller photo keeps its own size."""
         if max_side < 16:
             raise ValueError(f"max_side {max_side} is below 16 px")
         self.choice = network_choice(model, material_class, device)

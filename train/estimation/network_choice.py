@@ -4,7 +4,7 @@
 what users get:
 
 - ``--model FILE``: that network for every photo;
-- ``--class wood|plastic|metal|general``: that shipped network for every photo; DEFAULT_CLASS
+- ``--class wood|plastic|metal``: that shipped network for every photo; DEFAULT_CLASS
   when nothing is said.
 
 A choice (FixedNetwork) has ``input_size`` (the photo side its network takes) and

@@ -30,8 +30,8 @@ from train.networks.svbrdf_net import NetworkConfig, SVBRDFNet
 FORMAT = "sa-svbrdf model 1"
 SHIPPED_MODELS = "train.shipped_models"
 """The data package of the shipped files: the repository's ``models/`` (pyproject.toml)."""
-SHIPPED = ("general", "wood", "plastic", "metal")
-"""The general network (every class) and one network per class, as the paper trains."""
+SHIPPED = ("wood", "plastic", "metal")
+"""One network per material class, as the paper trains them."""
 
 
 def shipped_model_path(name: str) -> Path:
