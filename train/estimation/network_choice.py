@@ -27,7 +27,7 @@ from train.networks.svbrdf_net import SVBRDFNet
 DEFAULT_CLASS = "plastic"
 """The network a photo gets unless told otherwise: of the shipped networks, the one that relit
 real materials best on the real-set validation (models/README.md, "Real-set validation and
-test": 0.97x the naive baseline). The plastic network's photo-affine albedo is the photo less a
+test": 0.98x the naive baseline). The plastic network's photo-affine albedo is the photo less a
 grey offset, so it keeps the photo's colour and detail on any material."""
 
 
