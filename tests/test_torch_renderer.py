@@ -105,6 +105,35 @@ def test_gradients_match_finite_differences(alpha):
     assert torch.autograd.gradcheck(function, inputs, eps=1e-7, atol=1e-5, rtol=1e-3)
 
 
+def test_recomputed_tables_give_the_same_gradients(monkeypatch):
+    """Beyond KEPT_LANES the sharp tables are recomputed in the backward pass rather than
+    kept (memory); the values and gradients must be those of the kept path."""
+    from render.torch_renderer import renderer
+    rng = np.random.default_rng(3)
+    bank = ProbeBank([rng.uniform(0, 1, (16, 32, 3)) ** 3], dtype=torch.float64)
+    normal = rng.normal(size=(1, 3, 8, 8)) * np.array([0.5, 0.5, 0])[None, :, None, None]
+    normal[:, 2] += 1
+    maps = (rng.uniform(0.2, 0.8, (1, 3, 8, 8)), normal, [[0.3, 0.4, 0.5]], [0.05])
+
+    def image_and_gradients():
+        inputs = [torch.tensor(np.asarray(m, np.float64), requires_grad=True) for m in maps]
+        image = render(*inputs, bank, [0], torch.tensor([15.0], dtype=torch.float64))
+        (image * torch.linspace(0, 1, image.numel(), dtype=torch.float64).reshape(
+            image.shape)).sum().backward()
+        return [image.detach()] + [tensor.grad for tensor in inputs]
+
+    kept = image_and_gradients()
+    calls = []
+    monkeypatch.setattr(renderer, "KEPT_LANES", 0)
+    monkeypatch.setattr(renderer, "checkpoint",
+                        lambda *a, **k: calls.append(1) or torch.utils.checkpoint.checkpoint(
+                            *a, **k))
+    recomputed = image_and_gradients()
+    assert calls  # the recomputing path ran
+    for a, b in zip(kept, recomputed):
+        torch.testing.assert_close(a, b, rtol=1e-12, atol=1e-15)
+
+
 def test_sphere_is_a_normal_map():
     normal, mask = sphere_normals(32, dtype=torch.float64)
     assert torch.allclose(normal.norm(dim=0), torch.ones(32, 32, dtype=torch.float64))

@@ -50,6 +50,7 @@ from collections.abc import Sequence
 
 import numpy as np
 import torch
+from torch.utils.checkpoint import checkpoint
 
 from render.common.color import REC709_LUMINANCE
 from render.common.probes import latitude_weights, plane_irradiance
@@ -66,6 +67,7 @@ NODES_PER_SIGMA = 3.0
 MAX_REFINEMENT = 8
 BROAD_ROUGHNESS = 0.12
 ENTRY_CHUNK_LANES = 1 << 20  # (table entries x stencil cells) evaluated at once
+KEPT_LANES = 1 << 25  # lanes whose intermediates a differentiated render keeps (about 2.7 GB)
 
 
 class ProbeBank:
@@ -378,10 +380,8 @@ def _specular_tables(lattice_energy, view, roughness, layout, entries, probe_hei
     oy, ox = (o.reshape(-1) for o in torch.meshgrid(offsets, offsets, indexing="ij"))
     disk = ox * ox + oy * oy <= radius * radius
     oy, ox = oy[disk], ox[disk]
-    chunk = max(1, ENTRY_CHUNK_LANES // oy.numel())
-    results = []
-    for start in range(0, entries.shape[0], chunk):
-        b, y, x = entries[start:start + chunk].unbind(1)
+
+    def chunk_values(b, y, x):
         normal = _entry_normals(layout, b, y, x, dtype)
         flat = (b[:, None] * size + y[:, None] + radius + oy) * size + x[:, None] + radius + ox
         h, h_dot_v, energy = vertex[flat].split([3, 1, 3], -1)
@@ -393,7 +393,23 @@ def _specular_tables(lattice_energy, view, roughness, layout, entries, probe_hei
         alpha = _blur_compensated_roughness(roughness[b], node_spacings[b] ** 2 / 6,
                                             lattice_spacing ** 2 / 6)
         weight = _ward_lobe(cos_h, cos_i, alpha[:, None])
-        results.append((weight[:, None, :] @ energy).squeeze(1))
+        return (weight[:, None, :] @ energy).squeeze(1)
+
+    chunk = max(1, ENTRY_CHUNK_LANES // oy.numel())
+    # The intermediates kept for the backward pass take about 80 bytes per lane: beyond
+    # KEPT_LANES the chunks are recomputed in the backward pass instead (the normals of an
+    # untrained network touch so many entries that keeping them outgrew 24 GiB: a metal
+    # network's first step with the relit loss, batch 16). Below it nothing is recomputed
+    # (recomputing every chunk cost a plastic training step 40%).
+    recompute = torch.is_grad_enabled() and entries.shape[0] * oy.numel() > KEPT_LANES and any(
+        t.requires_grad for t in (vertex, view, roughness))
+    results = []
+    for start in range(0, entries.shape[0], chunk):
+        b, y, x = entries[start:start + chunk].unbind(1)
+        if recompute:
+            results.append(checkpoint(chunk_values, b, y, x, use_reentrant=False))
+        else:
+            results.append(chunk_values(b, y, x))
     return torch.cat(results) if results else lattice_energy.new_zeros(0, 3)
 
 
