@@ -175,11 +175,12 @@ def maps_folder(work: Path, network: Network) -> Path:
     return folder
 
 
-def train_command(work: Path, network: Network, size: Size, device: str) -> list[str]:
-    """The sa-train call of one run."""
+def train_command(work: Path, network: Network, maps: Path, size: Size,
+                  device: str) -> list[str]:
+    """The sa-train call of one run on the material folders in ``maps``."""
     epochs = total_steps(network, size) * size.batch_size // size.epoch_samples
     return [str(BIN / "sa-train"),
-            "--labeled-maps", str(work / "maps" / network.name),
+            "--labeled-maps", str(maps),
             "--probes", str(work / "probes-training"),
             "--out", str(run_folder(work, network)),
             "--network", size.network, "--render-size", str(size.render_size),
@@ -198,8 +199,7 @@ def train_runs(work: Path, size: Size, device: str, minutes: float,
                parallel: int) -> dict[str, dict]:
     """Train (or continue) every network's run within ``minutes``; returns {network: steps,
     seconds}."""
-    for network in RECIPE:
-        maps_folder(work, network)
+    maps = {network.name: maps_folder(work, network) for network in RECIPE}
     deadline = time.monotonic() + 60.0 * minutes
     threads = str(max(1, (os.cpu_count() or 1) // max(1, parallel)))
     record = {}
@@ -217,9 +217,9 @@ def train_runs(work: Path, size: Size, device: str, minutes: float,
         run.parent.mkdir(parents=True, exist_ok=True)
         if steps_left(network) and allowance > 0:
             log = run.with_suffix(".log")
+            command = train_command(work, network, maps[network.name], size, device)
             with open(log, "a") as output:
-                process = subprocess.Popen(train_command(work, network, size, device),
-                                           stdout=output, stderr=subprocess.STDOUT,
+                process = subprocess.Popen(command, stdout=output, stderr=subprocess.STDOUT,
                                            env=os.environ | {"OMP_NUM_THREADS": threads})
                 try:
                     if process.wait(timeout=allowance):
@@ -322,8 +322,10 @@ def machine() -> str:
               help="The shared data folder (svbrdfs/, probes/).")
 def main(out, size_name, train_minutes, device, parallel, shared):
     work, shared, size = Path(out), Path(shared), SIZES[size_name]
-    command = (f"scripts/release.py --size {size_name} --train-minutes {train_minutes:g} "
-               f"--device {device} --parallel {parallel}")
+    # The files' and the card's command: a release continues over calls whose minutes and
+    # parallel runs differ, and neither changes what the runs compute, only how far they get
+    # (each file's metadata says its steps, the card each run's minutes).
+    command = f"scripts/release.py --size {size_name} --device {device}"
     try:
         for folder in ("svbrdfs", "probes"):
             if not (shared / folder).is_dir():
