@@ -15,6 +15,13 @@ combine them without running a network again:
     metal-if-flat<t>        the metal network's estimate for photos whose luminance varies
                             less than t (standard deviation over mean of the linear photo),
                             the plastic network's for the others
+    plastic+fixed-lobe-if-unsure<t>
+                            the naive lobe in plastic's estimate for photos whose lobe the
+                            plastic network reads differently across the photo's 8 dihedral
+                            views (rotations by 90 degrees, mirrorings: the same material
+                            under rotated or mirrored light) by more than t (the root mean
+                            square over its 3 log specular albedos and log roughness of their
+                            standard deviation across the views); its own lobe for the others
     plastic+true-lobe       the truth's lobe in plastic's estimate (the ceiling of a reader)
 
 A policy's parameter is chosen the way every choice is: on the validation, and its cross-
@@ -66,6 +73,24 @@ from train.evaluation.estimate_evaluation import (  # noqa: E402
 NETWORKS = ("plastic", "metal")
 BLEND_WEIGHTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 FLATNESS_THRESHOLDS = (0.0, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.1)
+SPREAD_THRESHOLDS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.6)
+
+
+def dihedral_views(photo: np.ndarray) -> list[np.ndarray]:
+    """The 8 rotations by multiples of 90 degrees of a (3, S, S) photo and of its mirror."""
+    mirrored = photo[:, :, ::-1]
+    return [np.ascontiguousarray(np.rot90(image, k, axes=(1, 2)))
+            for image in (photo, mirrored) for k in range(4)]
+
+
+def lobe_spread(choice, photo: np.ndarray) -> float:
+    """How differently ``choice`` reads the lobe across the photo's dihedral views (module
+    docstring: plastic+fixed-lobe-if-unsure)."""
+    lobes = []
+    for view in dihedral_views(photo):
+        estimate = model_estimate(choice, view)[0]
+        lobes.append(torch.cat([estimate["log_specular"][0], estimate["log_roughness"][0]]))
+    return float(torch.stack(lobes).std(0).pow(2).mean().sqrt())
 
 
 def luminance_variation(photo: torch.Tensor) -> float:
@@ -98,6 +123,7 @@ def cache_fold(out: Path, fold: str, samples: int, relights: int) -> list[dict]:
                    "truth": maps_at_size(truth, size), "naive": naive_estimate(photo)}
             for network in NETWORKS:
                 row[network] = model_estimate(choices[network], photo)[0]
+            row["plastic_lobe_spread"] = lobe_spread(choices["plastic"], photo)
             rows.append(row)
             print(f"{fold}: {i + 1} of {samples} photos", flush=True)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -126,6 +152,10 @@ def policies(row: dict) -> dict[str, dict]:
                                                      ("log_specular", "log_roughness")}}
     for weight in BLEND_WEIGHTS[:-1]:
         chosen[f"plastic+lobe{weight:g}"] = with_lobe(row["plastic"], weight)
+    for threshold in SPREAD_THRESHOLDS:
+        unsure = row["plastic_lobe_spread"] > threshold
+        chosen[f"plastic+fixed-lobe-if-unsure{threshold:g}"] = (
+            with_lobe(row["plastic"], 0.0) if unsure else row["plastic"])
     flatness = luminance_variation(row["photo"])
     for threshold in FLATNESS_THRESHOLDS[1:]:
         chosen[f"metal-if-flat{threshold:g}"] = row["metal" if flatness < threshold else "plastic"]
@@ -196,7 +226,9 @@ def main(out, samples, relights):
     families = {"plastic+lobe<w>": [f"plastic+lobe{w:g}" for w in BLEND_WEIGHTS[:-1]]
                 + ["plastic"],
                 "metal-if-flat<t>": ["plastic"] + [f"metal-if-flat{t:g}"
-                                                   for t in FLATNESS_THRESHOLDS[1:]]}
+                                                   for t in FLATNESS_THRESHOLDS[1:]],
+                "plastic+fixed-lobe-if-unsure<t>": ["plastic"] + [
+                    f"plastic+fixed-lobe-if-unsure{t:g}" for t in SPREAD_THRESHOLDS]}
     for family, members in families.items():
         value, picks = cross_validated(errors, members)
         table[f"{family}, cross-validated"] = {"relit_ratio": value, "picks": picks}
