@@ -37,7 +37,7 @@ demo: setup
 	$(BIN)/sa-estimate scenes/photos/brick-reference-01.jpg --model $(DEMO_OUT)/train \
 		--out $(DEMO_OUT)/estimate-demo-run --probe probes/env-studio.exr
 	$(BIN)/sa-estimate scenes/photos/brick-reference-01.jpg --out $(DEMO_OUT)/estimate
-	@echo "Estimate with the default shipped network: $(DEMO_OUT)/estimate/report.html"
+	@echo "The default estimate: $(DEMO_OUT)/estimate/report.html"
 	$(BIN)/sa-evaluate --materials scenes/materials --probes probes \
 		--samples 4 --relights 2 --out $(DEMO_OUT)/evaluate
 	@echo "Estimates against the truth and the naive baseline (the bundled sets are not a held-out test; real-set validation and test figures: models/README.md): $(DEMO_OUT)/evaluate/figure.png"

@@ -23,8 +23,11 @@ from torch import nn
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 from real_validation import evaluate_choice, report_beside_shipped  # noqa: E402
 
-from train.estimation.network_choice import network_choice  # noqa: E402
-from train.evaluation.estimate_evaluation import NAIVE_ROUGHNESS, NAIVE_SPECULAR  # noqa: E402
+from train.estimation.network_choice import (  # noqa: E402
+    FIXED_ROUGHNESS,
+    FIXED_SPECULAR,
+    network_choice,
+)
 
 
 class BlendedLobe(nn.Module):
@@ -36,8 +39,8 @@ class BlendedLobe(nn.Module):
 
     def forward(self, image):
         outputs = self.net(image)
-        for name, fixed in (("log_specular", math.log(NAIVE_SPECULAR)),
-                            ("log_roughness", math.log(NAIVE_ROUGHNESS))):
+        for name, fixed in (("log_specular", math.log(FIXED_SPECULAR)),
+                            ("log_roughness", math.log(FIXED_ROUGHNESS))):
             outputs[name] = self.weight * outputs[name] + (1.0 - self.weight) * torch.full_like(
                 outputs[name], fixed)
         return outputs
@@ -48,7 +51,7 @@ class Blended:
 
     def __init__(self, choice, weight):
         self.choice, self.weight, self.input_size = choice, weight, choice.input_size
-        self.model_files = choice.model_files
+        self.model_files, self.fixed_lobe = choice.model_files, choice.fixed_lobe
 
     def for_photo(self, photo):
         net, chosen = self.choice.for_photo(photo)

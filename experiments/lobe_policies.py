@@ -55,10 +55,12 @@ from render.common.exposure import expose  # noqa: E402
 from render.common.probes import find_probes, load_probe  # noqa: E402
 from render.torch_renderer.renderer import ProbeBank  # noqa: E402
 from train.data.photos import read_photo  # noqa: E402
-from train.estimation.network_choice import network_choice  # noqa: E402
+from train.estimation.network_choice import (  # noqa: E402
+    FIXED_ROUGHNESS,
+    FIXED_SPECULAR,
+    network_choice,
+)
 from train.evaluation.estimate_evaluation import (  # noqa: E402
-    NAIVE_ROUGHNESS,
-    NAIVE_SPECULAR,
     EvaluationConfig,
     as_photo_file,
     maps_at_size,
@@ -140,7 +142,7 @@ def probe_bank(out: Path) -> tuple[ProbeBank, list[str]]:
 
 def with_lobe(estimate: dict, weight: float) -> dict:
     """``estimate`` with its log lobe blended with the naive lobe's (module docstring)."""
-    fixed = {"log_specular": math.log(NAIVE_SPECULAR), "log_roughness": math.log(NAIVE_ROUGHNESS)}
+    fixed = {"log_specular": math.log(FIXED_SPECULAR), "log_roughness": math.log(FIXED_ROUGHNESS)}
     return estimate | {name: weight * estimate[name] + (1.0 - weight) * value
                        for name, value in fixed.items()}
 

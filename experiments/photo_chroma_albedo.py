@@ -47,7 +47,7 @@ class Recoloured:
 
     def __init__(self, choice):
         self.choice, self.input_size = choice, choice.input_size
-        self.model_files = choice.model_files
+        self.model_files, self.fixed_lobe = choice.model_files, choice.fixed_lobe
 
     def for_photo(self, photo):
         net, chosen = self.choice.for_photo(photo)

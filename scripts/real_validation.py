@@ -8,7 +8,7 @@ fold it is validated on). The held-out probes are split the same way: VALIDATION
 and relight the validation photos, TEST_PROBES the test photos; no network is trained under
 either.
 
-For each fold and each network choice (``--choices``: the shipped networks by class) it runs
+For each fold and each network choice (``--choices``: sa-evaluate's --class choices) it runs
 sa-evaluate (train.evaluation.estimate_evaluation) on ``--samples`` photos rendered by the
 torch renderer from the fold's sets, under the fold's probes: the same photos for every choice,
 each with the naive baseline's errors beside the model's. Sets a model was trained on
@@ -23,7 +23,7 @@ each with the naive baseline's errors beside the model's. Sets a model was train
     per_set.png                                the relit ratio of every set by every choice
 
     .venv/bin/python scripts/real_validation.py --out OUT [--split validation|test] \
-        [--choices wood,plastic,metal] [--samples 60] [--exclude SET,...]
+        [--choices unknown,wood,plastic,metal] [--samples 60] [--exclude SET,...]
 """
 
 import json
@@ -35,9 +35,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from render.common.atomic_files import atomic_path
-from train.estimation.network_choice import network_choice
+from train.estimation.network_choice import CLASSES, network_choice
 from train.evaluation.estimate_evaluation import EvaluationConfig, run
-from train.networks.model_files import SHIPPED
 
 SHARED = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
 TEST_SETS = ("ambientcg_Metal030", "nvidia-mdl_metal_diamond_pattern", "ambientcg_Rock053",
@@ -189,7 +188,7 @@ def evaluate_choice(out: Path, split: str, name: str, make_choice, samples: int 
 def report_beside_shipped(out: Path, names: list[str]) -> None:
     """Summarize the validation in ``out`` for the shipped choices evaluated there and the
     experiment's ``names``, and print the table."""
-    shipped = [c for c in SHIPPED
+    shipped = [c for c in CLASSES
                if (out / "fold1" / c / "results.json").is_file()]
     summarize(out, list(FOLDS), shipped + names)
     print((out / "table.md").read_text())
@@ -199,7 +198,7 @@ def report_beside_shipped(out: Path, names: list[str]) -> None:
 @click.option("--out", required=True, type=click.Path(), help="Output folder (resumable).")
 @click.option("--split", type=click.Choice(("validation", "test")), default="validation",
               show_default=True)
-@click.option("--choices", default=",".join(SHIPPED), show_default=True,
+@click.option("--choices", default=",".join(CLASSES), show_default=True,
               help="Network choices, as sa-evaluate's --class.")
 @click.option("--samples", default=60, show_default=True, help="Photos per fold.")
 @click.option("--relights", default=3, show_default=True)

@@ -17,11 +17,12 @@ Into WORK, each step kept where done, so that the same command continues a cut-o
     runs/<network>/               sa-train runs (each resumes from its newest checkpoint)
     files/svbrdf-<network>.safetensors   each run's newest checkpoint, exported: the released
                                   files
-    validation/, test/            scripts/real_validation.py evaluations and tables, on
-                                  ``--device`` too (an evaluation of an older export is made
-                                  again)
+    validation/, test/            scripts/real_validation.py evaluations and tables of every
+                                  sa-estimate --class choice (the networks, and unknown:
+                                  plastic's maps with the fixed lobe), on ``--device`` too
+                                  (an evaluation of an older export is made again)
     card.md, release.json         the card's tables: each run's steps and minutes, the
-                                  validation per fold and network, the test
+                                  validation per fold and choice, the test
 
 Time: the runs share ``--train-minutes``. Each is given the share of the minutes left that its
 steps left are of all runs' steps left (times ``--parallel``, the runs trained at once), and
@@ -53,7 +54,12 @@ import torch
 from render.common.atomic_files import atomic_path, write_json
 from render.common.errors import InputError
 from render.common.resume import file_digest
-from train.estimation.network_choice import FixedNetwork
+from train.estimation.network_choice import (
+    CLASSES,
+    UNKNOWN,
+    UNKNOWN_MATERIAL_NETWORK,
+    FixedNetwork,
+)
 from train.networks.checkpoints import NAME, checkpoint_files
 from train.networks.model_files import FORMAT, load_network, model_metadata, save_model
 
@@ -267,23 +273,31 @@ def exported_file(work: Path, network: Network) -> Path:
     return work / "files" / f"svbrdf-{network.name}.safetensors"
 
 
+def choice_file(work: Path, choice: str) -> Path:
+    """The exported file sa-estimate's ``--class choice`` estimates with."""
+    network_name = UNKNOWN_MATERIAL_NETWORK if choice == UNKNOWN else choice
+    return exported_file(work, next(n for n in RECIPE if n.name == network_name))
+
+
 def evaluate(work: Path, split: str, size: Size, shared: Path, device: str) -> dict:
-    """scripts/real_validation.py's evaluation of every network on ``split``, into
-    work/<split>, on the torch ``device``; an evaluation of another file than the current
+    """scripts/real_validation.py's evaluation of every --class choice (each network, and the
+    estimate for a material of unknown kind: plastic's maps with the fixed lobe) on ``split``,
+    into work/<split>, on the torch ``device``; an evaluation of another file than the current
     export is made again."""
     out, folds = work / split, list(split_folds(split))
-    for network in RECIPE:
+    for choice in CLASSES:
+        path = choice_file(work, choice)
         for fold in folds:
-            config = out / fold / network.name / "config.json"
+            config = out / fold / choice / "config.json"
             if config.is_file():
                 models = json.loads(config.read_text()).get("models", {})
-                if file_digest(exported_file(work, network)) not in models.values():
+                if file_digest(path) not in models.values():
                     shutil.rmtree(config.parent)
-        evaluate_choice(out, split, network.name,
-                        lambda fold, n=network: FixedNetwork(load_network(
-                            exported_file(work, n), device)),
+        evaluate_choice(out, split, choice,
+                        lambda fold, p=path, c=choice: FixedNetwork(
+                            load_network(p, device), fixed_lobe=c == UNKNOWN),
                         size.photos, size.relights, shared=shared, device=device)
-    return summarize(out, folds, [network.name for network in RECIPE])
+    return summarize(out, folds, list(CLASSES))
 
 
 def write_card(work: Path, command: str, record: dict, tables: dict) -> None:

@@ -26,10 +26,9 @@ from tests.conftest import (
 from train.cli.sa_estimate import main as sa_estimate
 from train.cli.sa_evaluate import main as sa_evaluate
 from train.data.map_samples import MapSampler
+from train.estimation.network_choice import FIXED_ROUGHNESS, FIXED_SPECULAR
 from train.evaluation.estimate_evaluation import (
     ERRORS,
-    NAIVE_ROUGHNESS,
-    NAIVE_SPECULAR,
     SWAPS,
     naive_estimate,
     relit_rmse,
@@ -87,8 +86,8 @@ def test_the_naive_baseline_is_the_scaled_photo_flat_and_fixed_specular():
     assert torch.allclose(naive["albedo"][0], torch.as_tensor(photo) * (0.5 / photo.mean()),
                           atol=1e-5)
     assert torch.equal(naive["normal"][0, 2], torch.ones(16, 16))
-    assert torch.allclose(naive["log_specular"], torch.full((1, 3), math.log(NAIVE_SPECULAR)))
-    assert float(naive["log_roughness"]) == pytest.approx(math.log(NAIVE_ROUGHNESS))
+    assert torch.allclose(naive["log_specular"], torch.full((1, 3), math.log(FIXED_SPECULAR)))
+    assert float(naive["log_roughness"]) == pytest.approx(math.log(FIXED_ROUGHNESS))
     # scored against itself as the truth, the baseline's errors vanish; the ratio divides means
     swapped = {swap: 0.01 for swap in SWAPS}
     records = [{"model": sample_errors(naive, naive, torch.zeros(1), torch.zeros(1))

@@ -89,4 +89,21 @@ def test_the_readme_example_runs():
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
     assert lines[0] == "(192, 256, 3) (192, 256, 3)"
-    assert lines[2].endswith("svbrdf-plastic.safetensors")
+    assert lines[1].split() == ["[", "0.08", "0.08", "0.08]", "0.25"]  # the fixed lobe
+    assert lines[2].endswith("svbrdf-plastic.safetensors fixed")
+
+
+def test_a_material_of_unknown_kind_gets_plastic_maps_with_the_fixed_lobe():
+    """The default (--class unknown): the plastic network's albedo and normals, the naive
+    baseline's lobe; --class plastic: the same maps with the lobe the network reads."""
+    from train.estimation.network_choice import DEFAULT_CLASS, FIXED_ROUGHNESS, FIXED_SPECULAR
+    assert DEFAULT_CLASS == "unknown"
+    unknown = Estimator(max_side=128).estimate_file(PHOTO)
+    plastic = Estimator(material_class="plastic", max_side=128).estimate_file(PHOTO)
+    np.testing.assert_array_equal(unknown.albedo, plastic.albedo)
+    np.testing.assert_array_equal(unknown.normal, plastic.normal)
+    assert unknown.network == {"model": plastic.network["model"], "lobe": "fixed"}
+    assert plastic.network["lobe"] == "read"
+    np.testing.assert_array_equal(unknown.specular_albedo, np.full(3, FIXED_SPECULAR, np.float32))
+    assert unknown.roughness == FIXED_ROUGHNESS
+    assert abs(np.log(plastic.roughness / FIXED_ROUGHNESS)) > 0.05  # the reading differs

@@ -68,6 +68,8 @@ def test_the_release_at_toy_size(tmp_path):
         for fold in FOLDS:
             assert f"| {fold} | {network.name} | {SIZES['toy'].photos} |" in card
         assert f"| test | {network.name} | {SIZES['toy'].photos} |" in card
+    for fold in (*FOLDS, "test"):  # the estimate for a material of unknown kind
+        assert f"| {fold} | unknown | {SIZES['toy'].photos} |" in card
 
     files = sorted((work / "files").rglob("*.safetensors"))
     before = {path: path.read_bytes() for path in files}

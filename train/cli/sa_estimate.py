@@ -9,8 +9,7 @@ from render.common.errors import InputError
 from train.estimation.batch import DEFAULT_PROBES, EstimateConfig, run
 from train.estimation.estimator import Estimator
 from train.estimation.full_resolution import MAX_SIDE
-from train.estimation.network_choice import DEFAULT_CLASS
-from train.networks.model_files import SHIPPED
+from train.estimation.network_choice import CLASSES, DEFAULT_CLASS
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -18,11 +17,13 @@ from train.networks.model_files import SHIPPED
 @click.option("--model", type=click.Path(), default=None,
               help="A model file (.safetensors), an sa-train checkpoint (.pt) or a run folder "
                    "(its newest checkpoint). Default: the shipped network of --class.")
-@click.option("--class", "material_class", type=click.Choice(SHIPPED),
+@click.option("--class", "material_class", type=click.Choice(CLASSES),
               default=DEFAULT_CLASS,
               show_default=True,
-              help="Shipped network to use when no --model is given (the default relit real "
-                   "materials best on the real-set validation, models/README.md).")
+              help="The photo's kind of material, when no --model is given: a shipped class "
+                   "network with the lobe it reads, or unknown: the plastic network's maps "
+                   "with a fixed lobe (relative specular 0.08, Ward alpha 0.25), the safest "
+                   "estimate of real materials on the real-set validation (models/README.md).")
 @click.option("--out", required=True, type=click.Path(),
               help="Output folder. Run again with the same options, a cut-off batch "
                    "continues: finished photos are skipped.")

@@ -6,17 +6,16 @@ from typing import Any
 import click
 
 from render.common.errors import InputError
-from train.estimation.network_choice import DEFAULT_CLASS, network_choice
+from train.estimation.network_choice import CLASSES, DEFAULT_CLASS, network_choice
 from train.evaluation.estimate_evaluation import EvaluationConfig, run
-from train.networks.model_files import SHIPPED
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
 @click.option("--model", type=click.Path(), default=None,
               help="Model file (.safetensors), sa-train checkpoint (.pt) or run folder.")
-@click.option("--class", "material_class", type=click.Choice(SHIPPED),
-              default=DEFAULT_CLASS,
-              show_default=True, help="Shipped network to evaluate when no --model is given.")
+@click.option("--class", "material_class", type=click.Choice(CLASSES),
+              default=DEFAULT_CLASS, show_default=True,
+              help="The choice to evaluate when no --model is given (sa-estimate's --class).")
 @click.option("--dataset", "datasets", type=click.Path(), multiple=True,
               help="render-dataset folder whose --split is evaluated (repeatable).")
 @click.option("--materials", type=click.Path(), default=None,

@@ -8,13 +8,15 @@
     result.specular_albedo, result.roughness   # the homogeneous Ward lobe
 
 An Estimator loads its network once (train.estimation.network_choice: a given model file or a
-shipped class network, by default DEFAULT_CLASS's) and estimates any number of photos.
+shipped class network; by default, for a material of unknown kind, the plastic network with
+the fixed lobe) and estimates any number of photos.
 ``sa-estimate`` (train.estimation.batch) is built on it, so a script gets exactly what the
 command writes.
 
 The estimate of a photo, as sa-evaluate measures it:
 1. its centre square at the network's input size S (train.data.photos.network_view) gives the
-   specular albedo and roughness (``estimate``, the network's S x S estimate);
+   specular albedo and roughness (``choice_estimate``: the network's S x S estimate, its lobe
+   the fixed one where the choice says so);
 2. the albedo and normal maps cover the whole photo at its own resolution, the longer side at
    most ``max_side`` (train.estimation.full_resolution).
 
@@ -25,6 +27,7 @@ the image (OpenGL convention), z out of the surface; roughness is the Ward alpha
 slope of the microfacets), in [0.02, 1].
 """
 
+import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,7 +38,13 @@ import torch
 from render.materials.reduced_svbrdf import ReducedSVBRDF
 from train.data.photos import network_view, photo_problem, read_linear_photo
 from train.estimation.full_resolution import MAX_SIDE, full_resolution_maps
-from train.estimation.network_choice import DEFAULT_CLASS, network_choice
+from train.estimation.network_choice import (
+    DEFAULT_CLASS,
+    FIXED_ROUGHNESS,
+    FIXED_SPECULAR,
+    FixedNetwork,
+    network_choice,
+)
 from train.networks.svbrdf_net import SVBRDFNet
 
 
@@ -51,6 +60,19 @@ def estimate(net: SVBRDFNet, photo: np.ndarray) -> ReducedSVBRDF:
                          specular.astype(np.float32), roughness)
 
 
+def choice_estimate(choice: FixedNetwork,
+                    photo: np.ndarray) -> tuple[ReducedSVBRDF, SVBRDFNet, dict]:
+    """(3, S, S) photo -> the estimate of ``choice`` (``estimate`` of its network, with the
+    fixed lobe where ``choice.fixed_lobe``), the network, and the dict that says which network
+    and whose lobe (train.estimation.network_choice)."""
+    net, chosen = choice.for_photo(photo)
+    svbrdf = estimate(net, photo)
+    if choice.fixed_lobe:
+        svbrdf = dataclasses.replace(svbrdf, specular=np.full(3, FIXED_SPECULAR, np.float32),
+                                     roughness=FIXED_ROUGHNESS)
+    return svbrdf, net, chosen
+
+
 @dataclass(frozen=True)
 class Estimate:
     """The reduced SVBRDF estimated from one photo (conventions: the module docstring)."""
@@ -64,7 +86,8 @@ class Estimate:
     roughness: float
     """Ward alpha (unitless), in [0.02, 1]."""
     network: dict
-    """Which network estimated the photo: ``model`` (its file)."""
+    """Which network estimated the photo: ``model`` (its file), and whose lobe the estimate
+    has: ``lobe``, ``read`` (the network's reading) or ``fixed``."""
     network_ms: float
     """Milliseconds of the network-size estimate."""
     full_resolution_ms: float
@@ -106,8 +129,7 @@ class Estimator:
         linear_photo = linear_photo.astype(np.float32, copy=False)
         photo = network_view(linear_photo, self.input_size)
         start = time.perf_counter()
-        net, chosen = self.choice.for_photo(photo)
-        small = estimate(net, photo)
+        small, net, chosen = choice_estimate(self.choice, photo)
         network_ms = 1000.0 * (time.perf_counter() - start)
         start = time.perf_counter()
         albedo, normal = full_resolution_maps(net, linear_photo, self.max_side)

@@ -1,19 +1,25 @@
-"""Which SVBRDF-net estimates a photo.
+"""Which SVBRDF-net estimates a photo, and whose specular lobe the estimate keeps.
 
 ``sa-estimate`` and ``sa-evaluate`` take the same choices, so that what sa-evaluate measures is
 what users get:
 
-- ``--model FILE``: that network for every photo;
-- ``--class wood|plastic|metal``: that shipped network for every photo; DEFAULT_CLASS
-  when nothing is said.
+- ``--model FILE``: that network for every photo, with the lobe it reads;
+- ``--class wood|plastic|metal``: that shipped network for every photo, with the lobe it reads;
+- ``--class unknown`` (DEFAULT_CLASS, when nothing is said): a photo of a material of unknown
+  kind gets the estimate that relit real materials most safely on the real-set validation
+  (models/README.md): the plastic network's albedo and normals with the fixed lobe,
+  FIXED_SPECULAR and FIXED_ROUGHNESS (the naive baseline's). There the plastic network's own
+  lobe reading relit no better on the mean (0.982x against 0.984x the naive baseline's) and up
+  to 1.74x on single sets (ambientcg_Onyx003), where the fixed lobe stays at or below 1.10x
+  (docs/experiments/2026-12-05-fixed-lobe-default.md).
 
-A choice (FixedNetwork) has ``input_size`` (the photo side its network takes) and
+A choice (FixedNetwork) has ``input_size`` (the photo side its network takes),
 ``for_photo(photo)``, which returns the network for a (3, S, S) photo and a dict saying which
-one (``model``: its file), and ``model_files``, the files its estimates depend on (what a
-resumed batch compares, train.estimation.batch). The shipped material classifier that picked a
-class network per photo (``--class auto``) was removed on 2026-12-04: on the real-set
-validation its picks relit 1.57x worse than the naive baseline, 1.25x with route costs
-measured there, and no threshold chosen on three folds helped on the fourth
+one (``model``: its file) and whose lobe (``lobe``: ``read`` or ``fixed``), ``fixed_lobe``
+(whether the estimate's lobe is the fixed one) and ``model_files``, the files its estimates
+depend on (what a resumed batch compares, train.estimation.batch). The shipped material
+classifier that picked a class network per photo (``--class auto``) was removed on 2026-12-04:
+on the real-set validation its picks relit 1.57x worse than the naive baseline
 (docs/experiments/2026-12-04-material-classifier-removed.md).
 """
 
@@ -21,21 +27,29 @@ from pathlib import Path
 
 import numpy as np
 
-from train.networks.model_files import load_network, shipped_model_path
+from train.networks.model_files import SHIPPED, load_network, shipped_model_path
 from train.networks.svbrdf_net import SVBRDFNet
 
-DEFAULT_CLASS = "plastic"
-"""The network a photo gets unless told otherwise: of the shipped networks, the one that relit
-real materials best on the real-set validation (models/README.md, "Real-set validation and
-test": 0.98x the naive baseline). The plastic network's photo-affine albedo is the photo less a
-grey offset, so it keeps the photo's colour and detail on any material."""
+UNKNOWN = "unknown"
+CLASSES = (UNKNOWN, *SHIPPED)
+"""The --class choices."""
+DEFAULT_CLASS = UNKNOWN
+UNKNOWN_MATERIAL_NETWORK = "plastic"
+"""The shipped network whose maps a photo of unknown material gets: of the shipped networks,
+the one that relit real materials best on the real-set validation. Its photo-affine albedo is
+the photo less a grey offset, so it keeps the photo's colour and detail on any material."""
+FIXED_SPECULAR = 0.08
+"""Relative specular albedo (every RGB channel) of the fixed lobe, the naive baseline's."""
+FIXED_ROUGHNESS = 0.25
+"""Ward alpha of the fixed lobe, the naive baseline's."""
 
 
 class FixedNetwork:
-    """One network for every photo."""
+    """One network for every photo; the lobe it reads, or the fixed one."""
 
-    def __init__(self, net: SVBRDFNet):
+    def __init__(self, net: SVBRDFNet, fixed_lobe: bool = False):
         self.net = net
+        self.fixed_lobe = fixed_lobe
         self.input_size = net.config.input_size
 
     @property
@@ -43,13 +57,17 @@ class FixedNetwork:
         return [Path(self.net.source)]
 
     def for_photo(self, photo: np.ndarray) -> tuple[SVBRDFNet, dict]:
-        return self.net, {"model": self.net.source}
+        return self.net, {"model": self.net.source,
+                          "lobe": "fixed" if self.fixed_lobe else "read"}
 
 
 def network_choice(model: str | Path | None, material_class: str,
                    device: str = "cpu") -> FixedNetwork:
     """The choice of the command line: ``model`` (a file or run folder) if given, else the
-    shipped network of ``material_class``."""
+    choice of ``material_class`` (one of CLASSES; the module docstring)."""
     if model is not None:
         return FixedNetwork(load_network(model, device))
+    if material_class == UNKNOWN:
+        return FixedNetwork(load_network(shipped_model_path(UNKNOWN_MATERIAL_NETWORK), device),
+                            fixed_lobe=True)
     return FixedNetwork(load_network(shipped_model_path(material_class), device))

@@ -117,6 +117,9 @@ def report_section(report: dict) -> str:
                     for file in report["relit"])
     specular = " ".join(f"{v:.4f}" for v in report["specular_albedo"])
     network = html.escape(Path(report["model"]).name)
+    # a report written before the fixed lobe existed has no "lobe": its network read the lobe
+    lobe = ("fixed (the estimate for a material of unknown kind)"
+            if report.get("lobe") == "fixed" else "read by the network")
     return (f"<h2>{name}</h2>"
             + figure(f"{folder}/photo.png", f"{name}: the photo", "photo")
             + figure(f"{folder}/albedo.png", f"{name}: estimated relative diffuse albedo, "
@@ -126,7 +129,8 @@ def report_section(report: dict) -> str:
                      f"normals, {width}x{height} px, (n + 1) / 2, OpenGL convention")
             + f"<table><tr><th>relative specular albedo (linear RGB, unitless)</th>"
               f"<td>{specular}</td></tr><tr><th>Ward roughness &alpha; (unitless, slope "
-              f"RMS)</th><td>{report['roughness']:.4f}</td></tr><tr><th>network</th>"
+              f"RMS)</th><td>{report['roughness']:.4f}</td></tr><tr><th>specular lobe</th>"
+              f"<td>{lobe}</td></tr><tr><th>network</th>"
               f"<td>{network}</td></tr><tr><th>network time</th>"
               f"<td>{report['network_ms']} ms at input size, {report['full_resolution_ms']} "
               f"ms for the full-resolution maps</td></tr></table>"

@@ -23,7 +23,8 @@ Errors per sample (all on the paper's relative quantities, natural logs):
                              rotation, both scaled by the exposure of the truth's render and
                              clamped to [0, 1]; the RMSE over pixels, channels and relights
 The naive baseline gets the same errors: albedo = the linearized photo scaled to mean 0.5, flat
-normals, relative specular albedo 0.08 on every channel, Ward alpha 0.25. The means, and each
+normals, relative specular albedo 0.08 on every channel, Ward alpha 0.25 (the fixed lobe of
+train.estimation.network_choice). The means, and each
 mean of the model divided by the baseline's (``ratio``, below 1: the model is better), close
 the report.
 
@@ -58,12 +59,10 @@ from render.torch_renderer.renderer import ProbeBank, render, sphere_normals, wa
 from train.data.labeled_dataset import LabeledDataset
 from train.data.map_samples import MapSampler
 from train.data.photos import PHOTO_GAMMA, read_photo
-from train.estimation.estimator import estimate
-from train.estimation.network_choice import FixedNetwork
+from train.estimation.estimator import choice_estimate
+from train.estimation.network_choice import FIXED_ROUGHNESS, FIXED_SPECULAR, FixedNetwork
 from train.training.losses import maps_at_size
 
-NAIVE_SPECULAR = 0.08
-NAIVE_ROUGHNESS = 0.25
 ERRORS = ("albedo_rmse", "normal_angle_deg", "log_specular_error", "log_roughness_error",
           "relit_rmse")
 SWAPS = {"albedo": ("albedo",), "normals": ("normal",), "specular": ("log_specular",),
@@ -152,8 +151,7 @@ def model_estimate(choice: FixedNetwork,
                    photo: np.ndarray) -> tuple[dict[str, torch.Tensor], dict]:
     """The estimate sa-estimate would write, as a dict of (1, ...) tensors, and the dict that
     says which network made it (train.estimation.network_choice)."""
-    net, chosen = choice.for_photo(photo)
-    svbrdf = estimate(net, photo)
+    svbrdf, _, chosen = choice_estimate(choice, photo)
     return {"albedo": torch.as_tensor(svbrdf.albedo.transpose(2, 0, 1))[None],
             "normal": torch.as_tensor(svbrdf.normal.transpose(2, 0, 1))[None],
             "log_specular": torch.as_tensor(np.log(svbrdf.specular))[None],
@@ -167,8 +165,8 @@ def naive_estimate(photo: np.ndarray) -> dict[str, torch.Tensor]:
     normal = torch.zeros_like(albedo)
     normal[:, 2] = 1.0
     return {"albedo": albedo.float(), "normal": normal.float(),
-            "log_specular": torch.full((1, 3), math.log(NAIVE_SPECULAR)),
-            "log_roughness": torch.tensor([[math.log(NAIVE_ROUGHNESS)]])}
+            "log_specular": torch.full((1, 3), math.log(FIXED_SPECULAR)),
+            "log_roughness": torch.tensor([[math.log(FIXED_ROUGHNESS)]])}
 
 
 def relit_under(parameters: dict[str, torch.Tensor], bank: ProbeBank, probe_index: torch.Tensor,
@@ -237,6 +235,7 @@ def run(cfg: EvaluationConfig, choice: FixedNetwork) -> dict:
     bank = ProbeBank([load_probe(path).radiance for path in probe_files], device=cfg.device)
     options = dataclasses.asdict(cfg) | {
         "models": {Path(path).name: file_digest(path) for path in choice.model_files},
+        "fixed_lobe": choice.fixed_lobe,
         "probe_files": {path.name: file_digest(path) for path in probe_files}}
     samples = test_samples(cfg, bank, probe_names)
     continue_folder(out, options, MAY_CHANGE, "sa-evaluate")
