@@ -22,13 +22,18 @@ combine them without running a network again:
                             under rotated or mirrored light) by more than t (the root mean
                             square over its 3 log specular albedos and log roughness of their
                             standard deviation across the views); its own lobe for the others
+    plastic+lobe=<s>,<a>    plastic's maps with a constant lobe: relative specular albedo s on
+                            every channel, Ward alpha a (CONSTANT_LOBES; the naive lobe is
+                            0.08, 0.25)
     plastic+true-lobe       the truth's lobe in plastic's estimate (the ceiling of a reader)
 
 A policy's parameter is chosen the way every choice is: on the validation, and its cross-
 validated figure chooses it on three folds and measures it on the fourth. Writes OUT/cache/
 <fold>.pt (tensors only; read with weights_only) and OUT/policies.json, and prints the table.
+``--only PREFIX`` measures the policies whose names start with it (and the naive baseline and
+plastic, beside them).
 
-    .venv/bin/python experiments/lobe_policies.py --out OUT
+    .venv/bin/python experiments/lobe_policies.py --out OUT [--only PREFIX]
 """
 
 import json
@@ -76,6 +81,8 @@ NETWORKS = ("plastic", "metal")
 BLEND_WEIGHTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 FLATNESS_THRESHOLDS = (0.0, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.1)
 SPREAD_THRESHOLDS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.6)
+CONSTANT_LOBES = tuple((specular, alpha) for specular in (0.04, 0.06, 0.08, 0.12, 0.16)
+                       for alpha in (0.15, 0.25, 0.4))
 
 
 def dihedral_views(photo: np.ndarray) -> list[np.ndarray]:
@@ -140,9 +147,11 @@ def probe_bank(out: Path) -> tuple[ProbeBank, list[str]]:
     return ProbeBank([load_probe(p).radiance for p in files]), [p.stem for p in files]
 
 
-def with_lobe(estimate: dict, weight: float) -> dict:
-    """``estimate`` with its log lobe blended with the naive lobe's (module docstring)."""
-    fixed = {"log_specular": math.log(FIXED_SPECULAR), "log_roughness": math.log(FIXED_ROUGHNESS)}
+def with_lobe(estimate: dict, weight: float, specular: float = FIXED_SPECULAR,
+              alpha: float = FIXED_ROUGHNESS) -> dict:
+    """``estimate`` with its log lobe blended with a constant lobe's, by default the naive
+    lobe (module docstring)."""
+    fixed = {"log_specular": math.log(specular), "log_roughness": math.log(alpha)}
     return estimate | {name: weight * estimate[name] + (1.0 - weight) * value
                        for name, value in fixed.items()}
 
@@ -154,6 +163,9 @@ def policies(row: dict) -> dict[str, dict]:
                                                      ("log_specular", "log_roughness")}}
     for weight in BLEND_WEIGHTS[:-1]:
         chosen[f"plastic+lobe{weight:g}"] = with_lobe(row["plastic"], weight)
+    for specular, alpha in CONSTANT_LOBES:
+        chosen[f"plastic+lobe={specular:g},{alpha:g}"] = with_lobe(row["plastic"], 0.0, specular,
+                                                                    alpha)
     for threshold in SPREAD_THRESHOLDS:
         unsure = row["plastic_lobe_spread"] > threshold
         chosen[f"plastic+fixed-lobe-if-unsure{threshold:g}"] = (
@@ -164,8 +176,10 @@ def policies(row: dict) -> dict[str, dict]:
     return chosen
 
 
-def relit_errors(out: Path, folds: dict[str, list[dict]]) -> dict[str, dict[str, list]]:
-    """{fold: {policy: [relit RMSE per photo]}, "sets": [set per photo]} of every policy."""
+def relit_errors(out: Path, folds: dict[str, list[dict]],
+                 only: str = "") -> dict[str, dict[str, list]]:
+    """{fold: {policy: [relit RMSE per photo]}, "sets": [set per photo]} of every policy
+    whose name starts with ``only``, and of the naive baseline and plastic."""
     bank, _ = probe_bank(out)
     errors = {}
     for fold, rows in folds.items():
@@ -174,6 +188,8 @@ def relit_errors(out: Path, folds: dict[str, list[dict]]) -> dict[str, dict[str,
             truth_hdr = relit_under(row["truth"], bank, row["probe_index"], row["rotation"])
             relit_truth = expose(truth_hdr)
             for name, parameters in policies(row).items():
+                if not name.startswith(only) and name not in ("naive", "plastic"):
+                    continue
                 errors[fold].setdefault(name, []).append(relit_rmse(
                     parameters, bank, row["probe_index"], row["rotation"], truth_hdr,
                     relit_truth))
@@ -212,10 +228,11 @@ def worst_set(errors: dict, policy: str) -> tuple[str, float]:
 @click.option("--out", required=True, type=click.Path())
 @click.option("--samples", default=60, show_default=True, help="Photos per fold.")
 @click.option("--relights", default=3, show_default=True)
-def main(out, samples, relights):
+@click.option("--only", default="", help="Measure the policies whose names start with this.")
+def main(out, samples, relights, only):
     out = Path(out)
     folds = {fold: cache_fold(out, fold, samples, relights) for fold in FOLDS}
-    errors = relit_errors(out, folds)
+    errors = relit_errors(out, folds, only)
     every = list(errors)
     table = {}
     for policy in errors["fold1"]:
@@ -230,7 +247,10 @@ def main(out, samples, relights):
                 "metal-if-flat<t>": ["plastic"] + [f"metal-if-flat{t:g}"
                                                    for t in FLATNESS_THRESHOLDS[1:]],
                 "plastic+fixed-lobe-if-unsure<t>": ["plastic"] + [
-                    f"plastic+fixed-lobe-if-unsure{t:g}" for t in SPREAD_THRESHOLDS]}
+                    f"plastic+fixed-lobe-if-unsure{t:g}" for t in SPREAD_THRESHOLDS],
+                "plastic+lobe=<s>,<a>": [f"plastic+lobe={s:g},{a:g}" for s, a in CONSTANT_LOBES]}
+    families = {family: members for family, members in families.items()
+                if all(member in errors["fold1"] for member in members)}
     for family, members in families.items():
         value, picks = cross_validated(errors, members)
         table[f"{family}, cross-validated"] = {"relit_ratio": value, "picks": picks}
