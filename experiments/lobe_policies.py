@@ -25,6 +25,10 @@ combine them without running a network again:
     plastic+lobe=<s>,<a>    plastic's maps with a constant lobe: relative specular albedo s on
                             every channel, Ward alpha a (CONSTANT_LOBES; the naive lobe is
                             0.08, 0.25)
+    unknown+photo-normals<k>
+                            the default estimate (plastic's albedo, the naive lobe) with
+                            normals from the photo's shading: a height of k times the log of
+                            its luminance, in pixels (darker lower for k > 0)
     plastic+true-lobe       the truth's lobe in plastic's estimate (the ceiling of a reader)
 
 A policy's parameter is chosen the way every choice is: on the validation, and its cross-
@@ -81,6 +85,7 @@ NETWORKS = ("plastic", "metal")
 BLEND_WEIGHTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 FLATNESS_THRESHOLDS = (0.0, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.1)
 SPREAD_THRESHOLDS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.6)
+PHOTO_NORMAL_STRENGTHS = (-2.0, -1.0, -0.5, 0.5, 1.0, 2.0)
 CONSTANT_LOBES = tuple((specular, alpha) for specular in (0.04, 0.06, 0.08, 0.12, 0.16)
                        for alpha in (0.15, 0.25, 0.4))
 
@@ -90,6 +95,17 @@ def dihedral_views(photo: np.ndarray) -> list[np.ndarray]:
     mirrored = photo[:, :, ::-1]
     return [np.ascontiguousarray(np.rot90(image, k, axes=(1, 2)))
             for image in (photo, mirrored) for k in range(4)]
+
+
+def photo_normals(photo: torch.Tensor, strength: float) -> torch.Tensor:
+    """(1, 3, S, S) unit normals (OpenGL: x right, y up the image) of the height field
+    ``strength`` * log luminance of a (3, S, S) linear photo, in pixels; central differences,
+    wrapped at the borders."""
+    height = strength * torch.log(photo.mean(0) + 1e-3)
+    d_right = (torch.roll(height, -1, 1) - torch.roll(height, 1, 1)) / 2.0
+    d_down = (torch.roll(height, -1, 0) - torch.roll(height, 1, 0)) / 2.0
+    normal = torch.stack([-d_right, d_down, torch.ones_like(height)])
+    return (normal / normal.norm(dim=0, keepdim=True))[None]
 
 
 def lobe_spread(choice, photo: np.ndarray) -> float:
@@ -163,6 +179,11 @@ def policies(row: dict) -> dict[str, dict]:
                                                      ("log_specular", "log_roughness")}}
     for weight in BLEND_WEIGHTS[:-1]:
         chosen[f"plastic+lobe{weight:g}"] = with_lobe(row["plastic"], weight)
+    unknown = with_lobe(row["plastic"], 0.0)
+    chosen["unknown"] = unknown
+    for strength in PHOTO_NORMAL_STRENGTHS:
+        chosen[f"unknown+photo-normals{strength:g}"] = unknown | {
+            "normal": photo_normals(row["photo"], strength)}
     for specular, alpha in CONSTANT_LOBES:
         chosen[f"plastic+lobe={specular:g},{alpha:g}"] = with_lobe(row["plastic"], 0.0, specular,
                                                                     alpha)
@@ -248,7 +269,9 @@ def main(out, samples, relights, only):
                                                    for t in FLATNESS_THRESHOLDS[1:]],
                 "plastic+fixed-lobe-if-unsure<t>": ["plastic"] + [
                     f"plastic+fixed-lobe-if-unsure{t:g}" for t in SPREAD_THRESHOLDS],
-                "plastic+lobe=<s>,<a>": [f"plastic+lobe={s:g},{a:g}" for s, a in CONSTANT_LOBES]}
+                "plastic+lobe=<s>,<a>": [f"plastic+lobe={s:g},{a:g}" for s, a in CONSTANT_LOBES],
+                "unknown+photo-normals<k>": ["unknown"] + [
+                    f"unknown+photo-normals{k:g}" for k in PHOTO_NORMAL_STRENGTHS]}
     families = {family: members for family, members in families.items()
                 if all(member in errors["fold1"] for member in members)}
     for family, members in families.items():
