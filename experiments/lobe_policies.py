@@ -29,6 +29,8 @@ combine them without running a network again:
                             the default estimate (plastic's albedo, the naive lobe) with
                             normals from the photo's shading: a height of k times the log of
                             its luminance, in pixels (darker lower for k > 0)
+    unknown+albedo<w>       the default estimate with w times plastic's albedo plus 1 - w
+                            times the naive one (the photo scaled to mean 0.5)
     plastic+true-lobe       the truth's lobe in plastic's estimate (the ceiling of a reader)
 
 A policy's parameter is chosen the way every choice is: on the validation, and its cross-
@@ -86,6 +88,7 @@ BLEND_WEIGHTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 FLATNESS_THRESHOLDS = (0.0, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.1)
 SPREAD_THRESHOLDS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.6)
 PHOTO_NORMAL_STRENGTHS = (-2.0, -1.0, -0.5, 0.5, 1.0, 2.0)
+ALBEDO_WEIGHTS = (0.0, 0.5, 0.75, 1.25, 1.5)
 CONSTANT_LOBES = tuple((specular, alpha) for specular in (0.04, 0.06, 0.08, 0.12, 0.16)
                        for alpha in (0.15, 0.25, 0.4))
 
@@ -184,6 +187,9 @@ def policies(row: dict) -> dict[str, dict]:
     for strength in PHOTO_NORMAL_STRENGTHS:
         chosen[f"unknown+photo-normals{strength:g}"] = unknown | {
             "normal": photo_normals(row["photo"], strength)}
+    for weight in ALBEDO_WEIGHTS:
+        chosen[f"unknown+albedo{weight:g}"] = unknown | {
+            "albedo": weight * unknown["albedo"] + (1.0 - weight) * row["naive"]["albedo"]}
     for specular, alpha in CONSTANT_LOBES:
         chosen[f"plastic+lobe={specular:g},{alpha:g}"] = with_lobe(row["plastic"], 0.0, specular,
                                                                     alpha)
@@ -271,7 +277,9 @@ def main(out, samples, relights, only):
                     f"plastic+fixed-lobe-if-unsure{t:g}" for t in SPREAD_THRESHOLDS],
                 "plastic+lobe=<s>,<a>": [f"plastic+lobe={s:g},{a:g}" for s, a in CONSTANT_LOBES],
                 "unknown+photo-normals<k>": ["unknown"] + [
-                    f"unknown+photo-normals{k:g}" for k in PHOTO_NORMAL_STRENGTHS]}
+                    f"unknown+photo-normals{k:g}" for k in PHOTO_NORMAL_STRENGTHS],
+                "unknown+albedo<w>": ["unknown"] + [f"unknown+albedo{w:g}"
+                                                   for w in ALBEDO_WEIGHTS]}
     families = {family: members for family, members in families.items()
                 if all(member in errors["fold1"] for member in members)}
     for family, members in families.items():
