@@ -27,7 +27,10 @@ Into WORK, each step kept where done, so that the same command continues a cut-o
 Time: the runs share ``--train-minutes``. Each is given the share of the minutes left that its
 steps left are of all runs' steps left (times ``--parallel``, the runs trained at once), and
 stopped when that is spent; its newest checkpoint is then exported and card.md says how many of
-its steps it reached. A later call continues the runs towards their steps. ``--size toy`` is the
+its steps it reached. A later call continues the runs towards their steps; the validation and
+the test are measured once every run has all its steps (an unfinished release's card has the
+runs' table only: on a CPU the measurement takes about 15 minutes, a release several calls).
+``--size toy`` is the
 same pipeline on a few small sets, a small network and a few photos (minutes on a CPU; the
 tests run it); ``full`` is the release.
 
@@ -300,19 +303,23 @@ def evaluate(work: Path, split: str, size: Size, shared: Path, device: str) -> d
     return summarize(out, folds, list(CLASSES))
 
 
-def write_card(work: Path, command: str, record: dict, tables: dict) -> None:
-    """card.md and release.json: the machine, the runs, the validation and the test."""
+def write_card(work: Path, command: str, record: dict, tables: dict | None) -> None:
+    """card.md and release.json: the machine, the runs, and the validation and the test
+    (``tables``; None while a run is unfinished)."""
     lines = [f"Made by `{command}` on {machine()}.", "", "| run | steps | minutes |",
              "| --- | --- | --- |"]
     lines += [f"| {name} | {row['steps']} of {row['of_steps']} | {row['seconds'] / 60:.1f} |"
               for name, row in record.items()]
-    for split in ("validation", "test"):
+    if tables is None:
+        lines += ["", "Unfinished: the same command continues the runs; the validation and the "
+                      "test are measured when every run has all its steps."]
+    for split in tables or ():
         lines += ["", f"**{split}** (relit and albedo RMSE over the naive baseline's)", "",
                   (work / split / "table.md").read_text()]
     with atomic_path(work / "card.md") as tmp:
         tmp.write_text("\n".join(lines) + "\n")
     write_json(work / "release.json", {"command": command, "machine": machine(),
-                                       "runs": record, **tables})
+                                       "runs": record, **(tables or {})})
 
 
 def machine() -> str:
@@ -350,8 +357,9 @@ def main(out, size_name, train_minutes, device, parallel, shared):
         record = train_runs(work, size, device, train_minutes, parallel)
         for network in RECIPE:
             export(work, network, size_name, command)
+        finished = all(row["steps"] >= row["of_steps"] for row in record.values())
         tables = {split: evaluate(work, split, size, shared, device)
-                  for split in ("validation", "test")}
+                  for split in ("validation", "test")} if finished else None
         write_card(work, command, record, tables)
     except InputError as error:
         raise click.ClickException(str(error)) from None

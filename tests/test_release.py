@@ -12,7 +12,7 @@ from tests.conftest import REPO, SHARED_DATA, needs_shared
 
 sys.path.insert(0, str(REPO / "scripts"))
 from real_validation import FOLDS, TEST_PROBES, VALIDATION_PROBES  # noqa: E402
-from release import RECIPE, SIZES, total_steps, training_probes  # noqa: E402
+from release import RECIPE, SIZES, total_steps, training_probes, write_card  # noqa: E402
 
 
 def test_no_run_trains_on_the_procedural_test_seed():
@@ -33,6 +33,16 @@ def test_no_run_is_lit_by_a_held_out_probe():
     held_out = len(VALIDATION_PROBES) + len(TEST_PROBES)
     assert len(probes) == len(list((SHARED_DATA / "probes").glob("*.exr"))) - held_out == 26
     assert not set(probes) & (set(VALIDATION_PROBES) | set(TEST_PROBES))
+
+
+def test_an_unfinished_release_has_the_runs_table_and_no_figures(tmp_path):
+    record = {"wood": {"steps": 1100, "of_steps": 4600, "seconds": 5713.1}}
+    write_card(tmp_path, "scripts/release.py --size full --device cpu", record, None)
+    card = (tmp_path / "card.md").read_text()
+    assert "| wood | 1100 of 4600 | 95.2 |" in card and "Unfinished" in card
+    assert "validation**" not in card
+    summary = json.loads((tmp_path / "release.json").read_text())
+    assert summary["runs"] == record and "validation" not in summary
 
 
 def release(work, minutes):
