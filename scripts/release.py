@@ -25,8 +25,9 @@ Into WORK, each step kept where done, so that the same command continues a cut-o
                                   validation per fold and choice, the test
 
 Time: the runs share ``--train-minutes``. Each is given the share of the minutes left that its
-steps left are of all runs' steps left (times ``--parallel``, the runs trained at once), and
-stopped when that is spent; its newest checkpoint is then exported and card.md says how many of
+steps left are of the steps left of the runs whose turn in this call is not over (times
+``--parallel``, the runs trained at once; the last run gets what is left), and stopped when
+that is spent; its newest checkpoint is then exported and card.md says how many of
 its steps it reached. A later call continues the runs towards their steps; the validation and
 the test are measured once every run has all its steps (an unfinished release's card has the
 runs' table only: on a CPU the measurement takes about 15 minutes, a release several calls).
@@ -212,15 +213,14 @@ def train_runs(work: Path, size: Size, device: str, minutes: float,
     deadline = time.monotonic() + 60.0 * minutes
     threads = str(max(1, (os.cpu_count() or 1) // max(1, parallel)))
     record = {}
+    waiting = {network.name for network in RECIPE}  # runs whose turn in this call is not over
 
     def steps_left(network):
         return max(0, total_steps(network, size) - steps_reached(run_folder(work, network)))
 
     def train(network):
-        left_now = sum(steps_left(n) for n in RECIPE)
-        allowance = (deadline - time.monotonic()) * parallel * steps_left(network) / max(
-            1, left_now)
-        allowance = min(allowance, deadline - time.monotonic())
+        allowance = time_share(deadline - time.monotonic(), parallel, steps_left(network),
+                               sum(steps_left(n) for n in RECIPE if n.name in waiting))
         start = time.monotonic()
         run = run_folder(work, network)
         run.parent.mkdir(parents=True, exist_ok=True)
@@ -243,11 +243,21 @@ def train_runs(work: Path, size: Size, device: str, minutes: float,
             tmp.write_text(f"{seconds:.1f}")
         record[network.name] = {"steps": steps_reached(run), "of_steps": total_steps(network, size),
                                 "seconds": round(seconds, 1)}
+        waiting.discard(network.name)
         click.echo(json.dumps({"run": network.name, **record[network.name]}))
 
     with ThreadPoolExecutor(max(1, parallel)) as pool:
         list(pool.map(train, RECIPE))
     return record
+
+
+def time_share(seconds_left: float, parallel: int, steps_left: int,
+               steps_left_waiting: int) -> float:
+    """Seconds a run may train: of the ``seconds_left`` (times ``parallel``, the runs trained at
+    once), the share its steps left are of those of every run whose turn in this call is not
+    over (``steps_left_waiting``, its own included), and never past the deadline."""
+    share = seconds_left * parallel * steps_left / max(1, steps_left_waiting)
+    return min(share, seconds_left)
 
 
 def export(work: Path, network: Network, size_name: str, command: str) -> Path:

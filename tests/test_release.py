@@ -12,7 +12,14 @@ from tests.conftest import REPO, SHARED_DATA, needs_shared
 
 sys.path.insert(0, str(REPO / "scripts"))
 from real_validation import FOLDS, TEST_PROBES, VALIDATION_PROBES  # noqa: E402
-from release import RECIPE, SIZES, total_steps, training_probes, write_card  # noqa: E402
+from release import (  # noqa: E402
+    RECIPE,
+    SIZES,
+    time_share,
+    total_steps,
+    training_probes,
+    write_card,
+)
 
 
 def test_no_run_trains_on_the_procedural_test_seed():
@@ -33,6 +40,13 @@ def test_no_run_is_lit_by_a_held_out_probe():
     held_out = len(VALIDATION_PROBES) + len(TEST_PROBES)
     assert len(probes) == len(list((SHARED_DATA / "probes").glob("*.exr"))) - held_out == 26
     assert not set(probes) & (set(VALIDATION_PROBES) | set(TEST_PROBES))
+
+
+def test_the_runs_share_the_time_by_their_steps_left_and_the_last_gets_the_rest():
+    assert time_share(3600.0, 1, 1000, 4000) == 900.0  # a quarter of the steps waiting
+    assert time_share(3600.0, 1, 3200, 3200) == 3600.0  # the last run: all that is left
+    assert time_share(3600.0, 2, 3000, 4000) == 3600.0  # never past the deadline
+    assert time_share(3600.0, 1, 0, 0) == 0.0
 
 
 def test_an_unfinished_release_has_the_runs_table_and_no_figures(tmp_path):
