@@ -1,15 +1,17 @@
 """Try: per-photo policies for the specular lobe, measured on the real-set validation in seconds.
 
 On the real-set validation (scripts/real_validation.py) the truth's specular albedo and
-roughness swapped into any estimate take its relit error to about 0.41x the naive baseline's,
-and about 60% of the baseline's relit error is on five metals, where the default (plastic)
-network relights no better than the baseline. This caches, once per fold, what sa-evaluate
-sees of each validation photo (the photo read back from its 8-bit file, the truth, the relight
-probes and rotations, the plastic and metal networks' estimates: the same photos and draws as
-sa-evaluate's, so the plain policies reproduce its figures) and then measures policies that
-combine them without running a network again:
+roughness swapped into plastic's estimate take its relit error to about 0.51x the naive
+baseline's, and 41% of the baseline's relit error is on five metals, where the plastic network
+relights no better than the baseline (24 sets, 2026-12-05). This caches, once per fold, what
+sa-evaluate sees of each validation photo (the photo read back from its 8-bit file, the
+truth, the relight probes and rotations, the plastic and metal networks' estimates: the same
+photos and draws as sa-evaluate's, so the plain policies reproduce its figures) and then
+measures policies that combine them without running a network again:
 
     plastic, metal          the shipped networks' estimates
+    unknown                 the default estimate (sa-estimate --class unknown): plastic's
+                            maps with the naive lobe
     plastic+lobe<w>         plastic's log specular and log roughness blended with the naive
                             lobe's: w times its own plus (1 - w) times the baseline's
     metal-if-flat<t>        the metal network's estimate for photos whose luminance varies
