@@ -1,7 +1,7 @@
 """The release: every shipped SVBRDF-net file and the model card's tables, rebuilt by one
 command from the repository and ``../shared/data`` (issue 50, "one reproducible release").
 
-    .venv/bin/python scripts/release.py --out WORK [--size full|toy] [--train-minutes M] \
+    .venv/bin/python scripts/release.py --out WORK [--size full|cpu|toy] [--train-minutes M] \
         [--device cpu|cuda] [--parallel N] [--shared SHARED_DATA]
 
 RECIPE names the networks: the procedural sets each trains on (make-materials class and
@@ -30,10 +30,11 @@ steps left are of the steps left of the runs whose turn in this call is not over
 that is spent; its newest checkpoint is then exported and card.md says how many of
 its steps it reached. A later call continues the runs towards their steps; the validation and
 the test are measured once every run has all its steps (an unfinished release's card has the
-runs' table only: on a CPU the measurement takes about 15 minutes, a release several calls).
+runs' table only: on a CPU the measurement takes about 15 minutes).
 ``--size toy`` is the
 same pipeline on a few small sets, a small network and a few photos (minutes on a CPU; the
-tests run it); ``full`` is the release.
+tests run it); ``full`` is the release on a GPU, ``cpu`` the same at a quarter of the steps
+(SIZES).
 
 The released files are not copied into models/: the shipped files change when a release's
 validation says they should (models/README.md).
@@ -114,8 +115,8 @@ class Size:
     """Side (px) of the procedural maps."""
     network: str
     """sa-train --network preset."""
-    steps: int | None
-    """Optimizer steps of every run (None: each network's own)."""
+    step_fraction: float
+    """Share of each network's full-size steps a run trains (rounded up to whole epochs)."""
     epoch_samples: int
     batch_size: int
     render_size: int
@@ -126,8 +127,12 @@ class Size:
     relights: int
 
 
-SIZES = {"full": Size(50, 512, "compact", None, 3200, 16, 512, 100, 60, 3),
-         "toy": Size(1, 64, "small", 4, 16, 4, 128, 2, 2, 1)}
+SIZES = {"full": Size(50, 512, "compact", 1.0, 3200, 16, 512, 100, 60, 3),
+         "cpu": Size(50, 512, "compact", 0.25, 3200, 16, 512, 100, 60, 3),
+         "toy": Size(1, 64, "small", 0.0005, 16, 4, 128, 2, 2, 1)}
+"""``full`` is meant for one GPU call (12,400 steps); ``cpu`` trains a quarter of the steps,
+about 80 minutes of a 2-core CPU, so that a release fits one working session there; ``toy``
+runs in minutes (the tests)."""
 
 
 def training_probes(shared: Path) -> list[str]:
@@ -144,9 +149,8 @@ def training_probe_folder(work: Path, shared: Path) -> Path:
 
 def total_steps(network: Network, size: Size) -> int:
     """Optimizer steps of a run: whole epochs of ``size.epoch_samples``."""
-    steps = size.steps or network.steps
     per_epoch = size.epoch_samples // size.batch_size
-    return math.ceil(steps / per_epoch) * per_epoch
+    return math.ceil(network.steps * size.step_fraction / per_epoch) * per_epoch
 
 
 def checkpoint_step(checkpoint: Path) -> int:
