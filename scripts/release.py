@@ -59,12 +59,7 @@ import torch
 from render.common.atomic_files import atomic_path, write_json
 from render.common.errors import InputError
 from render.common.resume import file_digest
-from train.estimation.network_choice import (
-    CLASSES,
-    UNKNOWN,
-    UNKNOWN_MATERIAL_NETWORK,
-    FixedNetwork,
-)
+from train.estimation.network_choice import CLASSES, class_model_file, network_choice
 from train.networks.checkpoints import NAME, checkpoint_files
 from train.networks.model_files import FORMAT, load_network, model_metadata, save_model
 
@@ -290,12 +285,6 @@ def exported_file(work: Path, network: Network) -> Path:
     return work / "files" / f"svbrdf-{network.name}.safetensors"
 
 
-def choice_file(work: Path, choice: str) -> Path:
-    """The exported file sa-estimate's ``--class choice`` estimates with."""
-    network_name = UNKNOWN_MATERIAL_NETWORK if choice == UNKNOWN else choice
-    return exported_file(work, next(n for n in RECIPE if n.name == network_name))
-
-
 def evaluate(work: Path, split: str, size: Size, shared: Path, device: str) -> dict:
     """scripts/real_validation.py's evaluation of every --class choice (each network, and the
     estimate for a material of unknown kind: plastic's maps with the fixed lobe) on ``split``,
@@ -303,7 +292,7 @@ def evaluate(work: Path, split: str, size: Size, shared: Path, device: str) -> d
     export is made again."""
     out, folds = work / split, list(split_folds(split))
     for choice in CLASSES:
-        path = choice_file(work, choice)
+        path = class_model_file(choice, work / "files")
         for fold in folds:
             config = out / fold / choice / "config.json"
             if config.is_file():
@@ -311,8 +300,7 @@ def evaluate(work: Path, split: str, size: Size, shared: Path, device: str) -> d
                 if file_digest(path) not in models.values():
                     shutil.rmtree(config.parent)
         evaluate_choice(out, split, choice,
-                        lambda fold, p=path, c=choice: FixedNetwork(
-                            load_network(p, device), fixed_lobe=c == UNKNOWN),
+                        lambda fold, c=choice: network_choice(None, c, device, work / "files"),
                         size.photos, size.relights, shared=shared, device=device)
     return summarize(out, folds, list(CLASSES))
 

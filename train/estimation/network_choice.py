@@ -61,13 +61,19 @@ class FixedNetwork:
                           "lobe": "fixed" if self.fixed_lobe else "read"}
 
 
-def network_choice(model: str | Path | None, material_class: str,
-                   device: str = "cpu") -> FixedNetwork:
+def class_model_file(material_class: str, models: Path | None = None) -> Path:
+    """The file ``--class material_class`` (one of CLASSES) estimates with:
+    svbrdf-<network>.safetensors in the folder ``models`` (None: the shipped models)."""
+    name = UNKNOWN_MATERIAL_NETWORK if material_class == UNKNOWN else material_class
+    return shipped_model_path(name) if models is None else models / f"svbrdf-{name}.safetensors"
+
+
+def network_choice(model: str | Path | None, material_class: str, device: str = "cpu",
+                   models: Path | None = None) -> FixedNetwork:
     """The choice of the command line: ``model`` (a file or run folder) if given, else the
-    choice of ``material_class`` (one of CLASSES; the module docstring)."""
+    choice of ``material_class`` (one of CLASSES; the module docstring) among the files of
+    ``models`` (None: the shipped models; a release measures its own)."""
     if model is not None:
         return FixedNetwork(load_network(model, device))
-    if material_class == UNKNOWN:
-        return FixedNetwork(load_network(shipped_model_path(UNKNOWN_MATERIAL_NETWORK), device),
-                            fixed_lobe=True)
-    return FixedNetwork(load_network(shipped_model_path(material_class), device))
+    return FixedNetwork(load_network(class_model_file(material_class, models), device),
+                        fixed_lobe=material_class == UNKNOWN)
