@@ -223,23 +223,34 @@ def train_runs(work: Path, size: Size, device: str, minutes: float,
         start = time.monotonic()
         run = run_folder(work, network)
         run.parent.mkdir(parents=True, exist_ok=True)
+        timing = run.with_suffix(".seconds")
+        before = float(timing.read_text()) if timing.is_file() else 0.0
+
+        def record_seconds() -> float:
+            # Written every minute, so that a call killed by a signal keeps its time too.
+            seconds = before + time.monotonic() - start
+            with atomic_path(timing) as tmp:
+                tmp.write_text(f"{seconds:.1f}")
+            return seconds
+
         if steps_left(network) and allowance > 0:
             log = run.with_suffix(".log")
             command = train_command(work, network, maps[network.name], size, device)
             with open(log, "a") as output:
                 process = subprocess.Popen(command, stdout=output, stderr=subprocess.STDOUT,
                                            env=os.environ | {"OMP_NUM_THREADS": threads})
-                try:
-                    if process.wait(timeout=allowance):
-                        raise InputError(log, f"sa-train failed (exit status {process.returncode})")
-                except subprocess.TimeoutExpired:
+                end = start + allowance
+                while process.poll() is None and time.monotonic() < end:
+                    try:
+                        process.wait(timeout=min(60.0, max(0.0, end - time.monotonic())))
+                    except subprocess.TimeoutExpired:
+                        record_seconds()
+                if process.poll() is None:
                     process.terminate()  # checkpoints are written whole: the newest is kept
                     process.wait()
-        timing = run.with_suffix(".seconds")
-        seconds = (float(timing.read_text()) if timing.is_file() else 0.0) + (
-            time.monotonic() - start)
-        with atomic_path(timing) as tmp:
-            tmp.write_text(f"{seconds:.1f}")
+                elif process.returncode:
+                    raise InputError(log, f"sa-train failed (exit status {process.returncode})")
+        seconds = record_seconds()
         record[network.name] = {"steps": steps_reached(run), "of_steps": total_steps(network, size),
                                 "seconds": round(seconds, 1)}
         waiting.discard(network.name)
