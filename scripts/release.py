@@ -33,7 +33,7 @@ the test are measured once every run has all its steps (an unfinished release's 
 runs' table only: on a CPU the measurement takes about 15 minutes).
 ``--size toy`` is the
 same pipeline on a few small sets, a small network and a few photos (minutes on a CPU; the
-tests run it); ``full`` is the release on a GPU, ``cpu`` the same at a quarter of the steps
+tests run it); ``full`` is the release on a GPU, ``cpu`` the same at an eighth of the steps
 (SIZES).
 
 The released files are not copied into models/: the shipped files change when a release's
@@ -123,10 +123,10 @@ class Size:
 
 
 SIZES = {"full": Size(50, 512, "compact", 1.0, 3200, 16, 512, 100, 60, 3),
-         "cpu": Size(50, 512, "compact", 0.25, 3200, 16, 512, 100, 60, 3),
+         "cpu": Size(50, 512, "compact", 0.125, 3200, 16, 512, 100, 60, 3),
          "toy": Size(1, 64, "small", 0.0005, 16, 4, 128, 2, 2, 1)}
-"""``full`` is meant for one GPU call (12,400 steps); ``cpu`` trains a quarter of the steps,
-about 80 minutes of a 2-core CPU, so that a release fits one working session there; ``toy``
+"""``full`` is meant for one GPU call (12,400 steps); ``cpu`` trains an eighth of the steps,
+about 70 minutes of a 2-core CPU, so that a release fits one working session there; ``toy``
 runs in minutes (the tests)."""
 
 
