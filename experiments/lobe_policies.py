@@ -13,7 +13,8 @@ measures policies that combine them without running a network again:
     unknown                 the default estimate (sa-estimate --class unknown): plastic's
                             maps with the naive lobe
     plastic+lobe<w>         plastic's log specular and log roughness blended with the naive
-                            lobe's: w times its own plus (1 - w) times the baseline's
+                            lobe's: w times its own plus (1 - w) times the baseline's (w = 0
+                            is unknown, w = 1 plastic)
     metal-if-flat<t>        the metal network's estimate for photos whose luminance varies
                             less than t (standard deviation over mean of the linear photo),
                             the plastic network's for the others
@@ -38,8 +39,8 @@ measures policies that combine them without running a network again:
 A policy's parameter is chosen the way every choice is: on the validation, and its cross-
 validated figure chooses it on three folds and measures it on the fourth. Writes OUT/cache/
 <fold>.pt (tensors only; read with weights_only) and OUT/policies.json, and prints the table.
-``--only PREFIX`` measures the policies whose names start with it (and the naive baseline and
-plastic, beside them).
+``--only PREFIX`` measures the policies whose names start with it (and the naive baseline,
+plastic and unknown, beside them).
 
     .venv/bin/python experiments/lobe_policies.py --out OUT [--only PREFIX]
 """
@@ -182,7 +183,7 @@ def policies(row: dict) -> dict[str, dict]:
     chosen = {"naive": row["naive"], "plastic": row["plastic"], "metal": row["metal"],
               "plastic+true-lobe": row["plastic"] | {name: row["truth"][name] for name in
                                                      ("log_specular", "log_roughness")}}
-    for weight in BLEND_WEIGHTS[:-1]:
+    for weight in BLEND_WEIGHTS[1:-1]:
         chosen[f"plastic+lobe{weight:g}"] = with_lobe(row["plastic"], weight)
     unknown = with_lobe(row["plastic"], 0.0)
     chosen["unknown"] = unknown
@@ -208,7 +209,7 @@ def policies(row: dict) -> dict[str, dict]:
 def relit_errors(out: Path, folds: dict[str, list[dict]],
                  only: str = "") -> dict[str, dict[str, list]]:
     """{fold: {policy: [relit RMSE per photo]}, "sets": [set per photo]} of every policy
-    whose name starts with ``only``, and of the naive baseline and plastic."""
+    whose name starts with ``only``, and of the naive baseline, plastic and unknown."""
     bank, _ = probe_bank(out)
     errors = {}
     for fold, rows in folds.items():
@@ -217,7 +218,7 @@ def relit_errors(out: Path, folds: dict[str, list[dict]],
             truth_hdr = relit_under(row["truth"], bank, row["probe_index"], row["rotation"])
             relit_truth = expose(truth_hdr)
             for name, parameters in policies(row).items():
-                if not name.startswith(only) and name not in ("naive", "plastic"):
+                if not name.startswith(only) and name not in ("naive", "plastic", "unknown"):
                     continue
                 errors[fold].setdefault(name, []).append(relit_rmse(
                     parameters, bank, row["probe_index"], row["rotation"], truth_hdr,
@@ -271,7 +272,7 @@ def main(out, samples, relights, only):
         table[policy] = {"relit_ratio": ratio(errors, every, policy),
                          "per_fold": [ratio(errors, [f], policy) for f in every],
                          "worst_set": name, "worst_relit_ratio": worst}
-    families = {"plastic+lobe<w>": [f"plastic+lobe{w:g}" for w in BLEND_WEIGHTS[:-1]]
+    families = {"plastic+lobe<w>": ["unknown"] + [f"plastic+lobe{w:g}" for w in BLEND_WEIGHTS[1:-1]]
                 + ["plastic"],
                 "metal-if-flat<t>": ["plastic"] + [f"metal-if-flat{t:g}"
                                                    for t in FLATNESS_THRESHOLDS[1:]],
