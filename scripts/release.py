@@ -126,7 +126,7 @@ SIZES = {"full": Size(50, 512, "compact", 1.0, 3200, 16, 512, 100, 60, 3),
          "cpu": Size(50, 512, "compact", 0.125, 3200, 16, 512, 100, 60, 3),
          "toy": Size(1, 64, "small", 0.0005, 16, 4, 128, 2, 2, 1)}
 """``full`` is meant for one GPU call (12,400 steps); ``cpu`` trains an eighth of the steps,
-about 70 minutes of a 2-core CPU, so that a release fits one working session there; ``toy``
+about 85 minutes of a 2-core CPU, so that a release fits one working session there; ``toy``
 runs in minutes (the tests)."""
 
 
