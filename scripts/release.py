@@ -30,7 +30,7 @@ steps left are of the steps left of the runs whose turn in this call is not over
 that is spent; its newest checkpoint is then exported and card.md says how many of
 its steps it reached. A later call continues the runs towards their steps; the validation and
 the test are measured once every run has all its steps (an unfinished release's card has the
-runs' table only: on a CPU the measurement takes about 15 minutes).
+runs' table only: on a 2-core CPU the measurement takes 15 to 26 minutes).
 ``--size toy`` is the
 same pipeline on a few small sets, a small network and a few photos (minutes on a CPU; the
 tests run it); ``full`` is the release on a GPU, ``cpu`` the same at an eighth of the steps
