@@ -292,8 +292,9 @@ def export(work: Path, network: Network, size_name: str, command: str) -> Path:
 
 
 def exported_file(work: Path, network: Network) -> Path:
-    """work/files/svbrdf-<network>.safetensors: the export of one run."""
-    return work / "files" / f"svbrdf-{network.name}.safetensors"
+    """work/files/svbrdf-<network>.safetensors: the export of one run (the file its --class
+    choice estimates with, among the release's files)."""
+    return class_model_file(network.name, work / "files")
 
 
 def evaluate(work: Path, split: str, size: Size, shared: Path, device: str) -> dict:
