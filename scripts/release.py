@@ -34,7 +34,9 @@ runs' table only: on a 2-core CPU the measurement takes 15 to 26 minutes).
 ``--size toy`` is the
 same pipeline on a few small sets, a small network and a few photos (minutes on a CPU; the
 tests run it); ``full`` is the release on a GPU, ``cpu`` the same at an eighth of the steps
-(SIZES).
+(SIZES). A work folder of size ``cpu`` continues into size ``full``: the same sets, and each
+run's steps so far are the first steps of its longer run (sa-train continues a run into more
+labeled epochs), so a CPU can grow a release over several calls.
 
 The released files are not copied into models/: the shipped files change when a release's
 validation says they should (models/README.md).
@@ -60,7 +62,7 @@ from render.common.atomic_files import atomic_path, write_json
 from render.common.errors import InputError
 from render.common.resume import file_digest
 from train.estimation.network_choice import CLASSES, class_model_file, network_choice
-from train.networks.checkpoints import NAME, checkpoint_files
+from train.networks.checkpoints import checkpoint_files, checkpoint_step
 from train.networks.model_files import FORMAT, load_network, model_metadata, save_model
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -146,11 +148,6 @@ def total_steps(network: Network, size: Size) -> int:
     """Optimizer steps of a run: whole epochs of ``size.epoch_samples``."""
     per_epoch = size.epoch_samples // size.batch_size
     return math.ceil(network.steps * size.step_fraction / per_epoch) * per_epoch
-
-
-def checkpoint_step(checkpoint: Path) -> int:
-    """Optimizer steps a checkpoint file holds, read from its name."""
-    return int(NAME.match(checkpoint.name).group(1))
 
 
 def steps_reached(run: Path) -> int:

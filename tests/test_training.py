@@ -165,6 +165,32 @@ def test_resuming_gives_the_weights_of_an_uninterrupted_run(dataset, tmp_path):
     assert again["history"]["test"] == straight["history"]["test"]
 
 
+def test_a_labeled_run_continues_into_a_longer_one(dataset, tmp_path):
+    """A run of 1 labeled epoch continued with 2 has the weights of a run of 2; a run that has
+    taken self-augmented steps keeps its number of labeled epochs."""
+    options = ["--self-augmented-epochs", "0", "--checkpoint-every", "3"]
+    assert train(dataset, tmp_path / "straight", "--labeled-epochs", "2", *options).exit_code == 0
+    grown = tmp_path / "grown"
+    assert train(dataset, grown, "--labeled-epochs", "1", *options).exit_code == 0
+    one_epoch = load_checkpoint(checkpoint_files(grown / "checkpoints")[-1])["step"]
+    longer = train(dataset, grown, "--labeled-epochs", "2", *options)
+    assert longer.exit_code == 0, longer.output
+    straight = load_checkpoint(checkpoint_files(tmp_path / "straight" / "checkpoints")[-1])
+    again = load_checkpoint(checkpoint_files(grown / "checkpoints")[-1])
+    assert again["step"] == straight["step"] == 2 * one_epoch
+    for name, tensor in straight["model"].items():
+        assert torch.equal(tensor, again["model"][name]), name
+    assert again["history"]["test"] == straight["history"]["test"]
+    shorter = train(dataset, grown, "--labeled-epochs", "1", *options)  # it has passed epoch 1
+    assert shorter.exit_code != 0 and "(differing: labeled_epochs)" in shorter.output
+
+    augmented = ["--unlabeled", str(dataset), "--self-augmented-epochs", "1"]
+    mixed = tmp_path / "mixed"
+    assert train(dataset, mixed, "--labeled-epochs", "1", *augmented).exit_code == 0
+    refused = train(dataset, mixed, "--labeled-epochs", "2", *augmented)
+    assert refused.exit_code != 0 and "(differing: labeled_epochs)" in refused.output
+
+
 def test_bad_input_gets_clear_errors(dataset, trained_run, tmp_path):
     (tmp_path / "empty").mkdir()
     empty = train(dataset, tmp_path / "a", "--unlabeled", str(tmp_path / "empty"))
@@ -174,9 +200,9 @@ def test_bad_input_gets_clear_errors(dataset, trained_run, tmp_path):
                                                str(BUNDLED_PROBES), "--network", "small"])
     assert wrong_size.exit_code != 0 and "samples are 32x32" in wrong_size.output
     assert not (tmp_path / "b").exists()  # a refused run writes nothing
-    other = train(dataset, trained_run, "--labeled-epochs", "2", "--self-augmented-epochs",
-                  "0")
-    assert other.exit_code != 0 and "(differing: labeled_epochs)" in other.output
+    other = train(dataset, trained_run, "--labeled-epochs", "1", "--self-augmented-epochs",
+                  "0", "--batch-size", "4")
+    assert other.exit_code != 0 and "(differing: batch_size)" in other.output
 
 
 def test_baseline_and_self_augmentation_share_the_labeled_schedule():

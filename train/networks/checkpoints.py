@@ -45,6 +45,11 @@ def checkpoint_files(folder: str | Path) -> list[Path]:
     return sorted(p for p in folder.iterdir() if NAME.match(p.name))
 
 
+def checkpoint_step(checkpoint: Path) -> int:
+    """Optimizer steps a checkpoint file holds, read from its name."""
+    return int(NAME.match(checkpoint.name).group(1))
+
+
 def load_checkpoint(path: str | Path) -> dict[str, Any]:
     """The state dict of a checkpoint file, checked to be one of ours. It is read with torch's
     safe loader (``weights_only=True``), so a file carrying pickled code is refused without

@@ -23,6 +23,7 @@ evaluates.
 """
 
 import dataclasses
+import json
 import logging
 import time
 from dataclasses import dataclass, field
@@ -44,7 +45,12 @@ from train.data.labeled_dataset import LabeledDataset
 from train.data.map_samples import MapSampler
 from train.data.unlabeled_data import UnlabeledImages
 from train.data.unlabeled_selection import select_matching
-from train.networks.checkpoints import checkpoint_files, load_checkpoint, save_checkpoint
+from train.networks.checkpoints import (
+    checkpoint_files,
+    checkpoint_step,
+    load_checkpoint,
+    save_checkpoint,
+)
 from train.networks.model_files import load_network
 from train.networks.svbrdf_net import PARTS, NetworkConfig, SVBRDFNet
 from train.training import distributed
@@ -70,7 +76,9 @@ FRESH_WHEN_CHANGED = {"homogeneous_pooling": "homogeneous", "albedo_network": "a
 the network each shapes (which then starts fresh)."""
 MAY_CHANGE = ("out", "device", "log_every", "checkpoint_every")
 """Options that do not change the trained weights: a resumed run may use other values
-(render.common.resume), so a moved run folder, or a CPU run continued on a GPU, resumes."""
+(render.common.resume), so a moved run folder, or a CPU run continued on a GPU, resumes.
+``labeled_epochs`` may change too while the run's steps all lie in the labeled phase
+(labeled_phase_holds): a short run continues into a longer one."""
 
 
 @dataclass(frozen=True)
@@ -424,8 +432,9 @@ def run(cfg: TrainConfig) -> dict[str, list[dict[str, float]]]:
 def _train(cfg, place):
     out = Path(cfg.out)
     run_state = Run(cfg, place)  # checks the inputs before anything is written
-    continue_folder(out, dataclasses.asdict(cfg), MAY_CHANGE, "sa-train",
-                    write=place.is_main)
+    may_change = MAY_CHANGE + (("labeled_epochs",) if labeled_phase_holds(
+        out, run_state.schedule) else ())
+    continue_folder(out, dataclasses.asdict(cfg), may_change, "sa-train", write=place.is_main)
     newest = checkpoint_files(out / "checkpoints")
     if newest:
         run_state.resume(newest[-1])
@@ -460,6 +469,22 @@ def _train(cfg, place):
         writer.close()
     place.barrier()  # every process returns once the last checkpoint is written
     return run_state.history
+
+
+def labeled_phase_holds(out: Path, schedule: Schedule) -> bool:
+    """Whether every step the run in ``out`` has taken (its newest checkpoint's) lies in the
+    labeled phase of both the schedule it was started with and ``schedule``: its steps are then
+    the same under either, since each step's data are drawn from (seed, step) and the learning
+    rate depends on the step alone, so the run may continue with ``schedule``'s number of
+    labeled epochs (a longer run, or a shorter one it has not passed). True for a folder
+    without checkpoints or a readable config.json (continue_folder says what is wrong)."""
+    checkpoints = checkpoint_files(out / "checkpoints")
+    try:
+        earlier = int(json.loads((out / "config.json").read_text())["labeled_epochs"])
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError):
+        return True
+    labeled_steps = schedule.steps_per_epoch * min(earlier, schedule.labeled_epochs)
+    return not checkpoints or checkpoint_step(checkpoints[-1]) <= labeled_steps
 
 
 def _log_interval(run_state, interval, interval_start, index):
