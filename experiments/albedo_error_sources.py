@@ -1,0 +1,109 @@
+"""Measurement: how much of the default estimate's and the naive baseline's relit error on the
+real-set validation is the albedo's colour cast, and how much its pattern.
+
+The relative albedo of an estimate has one overall scale (mean 0.5 over pixels and channels), so
+its three channel gains carry the lighting's colour the photo was taken under. Here each
+estimate's albedo A (3, S, S) is refit by oracle gains against the truth T, least squares:
+``scalar``: one gain g for all channels (g A), ``channel``: a gain per channel (g_c A_c, the
+oracle white balance). The relit RMSE of the estimate with each refit albedo (lobe and normals
+unchanged), over the relit RMSE of the naive baseline as it is, says what a perfect white
+balance, or a perfect exposure, would gain. Photos, probes and relights are those of
+scripts/real_validation.py's validation (the same 240 photos). Writes OUT/albedo_sources.json
+and prints the ratios of means per fold and over all.
+
+    .venv/bin/python experiments/albedo_error_sources.py --out OUT [--samples 60]
+"""
+
+import json
+import sys
+from pathlib import Path
+
+import click
+import numpy as np
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from real_validation import FOLDS, SHARED, linked_folder, split_probe_folder  # noqa: E402
+
+from render.common.exposure import expose  # noqa: E402
+from render.common.probes import find_probes, load_probe  # noqa: E402
+from render.torch_renderer.renderer import ProbeBank  # noqa: E402
+from train.data.photos import read_photo  # noqa: E402
+from train.estimation.network_choice import network_choice  # noqa: E402
+from train.evaluation.estimate_evaluation import (  # noqa: E402
+    EvaluationConfig,
+    as_photo_file,
+    model_estimate,
+    naive_estimate,
+    novel_lightings,
+    relit_rmse,
+    relit_under,
+    test_samples,
+)
+from train.training.losses import maps_at_size  # noqa: E402
+
+REFITS = ("as_is", "scalar", "channel")
+
+
+def refit_albedo(albedo: torch.Tensor, truth: torch.Tensor, refit: str) -> torch.Tensor:
+    """``albedo`` (1, 3, S, S) times the least-squares gains against ``truth``: none
+    (``as_is``), one for all channels (``scalar``) or one per channel (``channel``)."""
+    if refit == "as_is":
+        return albedo
+    dims = (0, 1, 2, 3) if refit == "scalar" else (0, 2, 3)
+    gain = (albedo * truth).sum(dims, keepdim=True) / (albedo * albedo).sum(
+        dims, keepdim=True).clamp(min=1e-12)
+    return albedo * gain
+
+
+@click.command()
+@click.option("--out", required=True, type=click.Path())
+@click.option("--samples", default=60, show_default=True)
+@click.option("--relights", default=3, show_default=True)
+def main(out, samples, relights):
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    probes = split_probe_folder(out, "validation")
+    probe_files = find_probes(probes)
+    probe_names = [path.stem for path in probe_files]
+    bank = ProbeBank([load_probe(path).radiance for path in probe_files])
+    choice = network_choice(None, "unknown")
+    rows = []
+    for fold, names in FOLDS.items():
+        sets = linked_folder(out / "sets" / fold, names, SHARED / "svbrdfs")
+        cfg = EvaluationConfig(out=str(out / fold), probes=str(probes), materials=str(sets),
+                               samples=samples, relights=relights)
+        for i, (image, truth, own_probe, name) in enumerate(
+                test_samples(cfg, bank, probe_names)):
+            photo = read_photo(as_photo_file(image, out, "photo"), choice.input_size)
+            truth = maps_at_size(truth, choice.input_size)
+            probe_index, rotation = novel_lightings(np.random.default_rng([cfg.seed, 2, i]),
+                                                    own_probe, probe_names, (), relights)
+            truth_hdr = relit_under(truth, bank, probe_index, rotation)
+            relit_truth = expose(truth_hdr)
+            row = {"fold": fold, "sample": name}
+            for kind, estimate in (("model", model_estimate(choice, photo)[0]),
+                                   ("naive", naive_estimate(photo))):
+                for refit in REFITS:
+                    albedo = refit_albedo(estimate["albedo"], truth["albedo"], refit)
+                    row[f"{kind}_{refit}_relit"] = relit_rmse(
+                        estimate | {"albedo": albedo}, bank, probe_index, rotation,
+                        truth_hdr, relit_truth)
+                    row[f"{kind}_{refit}_albedo"] = float(torch.sqrt(torch.mean(
+                        (albedo - truth["albedo"]) ** 2)))
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    (out / "albedo_sources.json").write_text(json.dumps(rows, indent=1))
+    for fold in (*FOLDS, "all"):
+        kept = [row for row in rows if fold in ("all", row["fold"])]
+        naive = np.mean([row["naive_as_is_relit"] for row in kept])
+        naive_albedo = np.mean([row["naive_as_is_albedo"] for row in kept])
+        print(fold, {f"{kind}_{refit}": (round(np.mean([r[f"{kind}_{refit}_relit"]
+                                                         for r in kept]) / naive, 3),
+                                          round(np.mean([r[f"{kind}_{refit}_albedo"]
+                                                         for r in kept]) / naive_albedo, 3))
+                     for kind in ("model", "naive") for refit in REFITS})
+
+
+if __name__ == "__main__":
+    main()
