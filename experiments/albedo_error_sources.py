@@ -7,8 +7,9 @@ estimate's albedo A (3, S, S) is refit by oracle gains against the truth T, leas
 ``scalar``: one gain g for all channels (g A), ``channel``: a gain per channel (g_c A_c, the
 oracle white balance). The relit RMSE of the estimate with each refit albedo (lobe and normals
 unchanged), over the relit RMSE of the naive baseline as it is, says what a perfect white
-balance, or a perfect exposure, would gain. Photos, probes and relights are those of
-scripts/real_validation.py's validation (the same 240 photos). Writes OUT/albedo_sources.json
+balance, or a perfect exposure, would gain; ``true_maps`` is the naive lobe with the
+truth's albedo and normals (what maps alone could reach under the fixed lobe). Photos, probes
+and relights are those of scripts/real_validation.py's validation (the same 240 photos). Writes OUT/albedo_sources.json
 and prints the ratios of means per fold and over all.
 
     .venv/bin/python experiments/albedo_error_sources.py --out OUT [--samples 60]
@@ -91,6 +92,9 @@ def main(out, samples, relights):
                         truth_hdr, relit_truth)
                     row[f"{kind}_{refit}_albedo"] = float(torch.sqrt(torch.mean(
                         (albedo - truth["albedo"]) ** 2)))
+            true_maps = {"albedo": truth["albedo"], "normal": truth["normal"]}
+            row["true_maps_relit"] = relit_rmse(naive_estimate(photo) | true_maps, bank,
+                                                probe_index, rotation, truth_hdr, relit_truth)
             rows.append(row)
             print(json.dumps(row), flush=True)
     (out / "albedo_sources.json").write_text(json.dumps(rows, indent=1))
@@ -102,7 +106,9 @@ def main(out, samples, relights):
                                                          for r in kept]) / naive, 3),
                                           round(np.mean([r[f"{kind}_{refit}_albedo"]
                                                          for r in kept]) / naive_albedo, 3))
-                     for kind in ("model", "naive") for refit in REFITS})
+                     for kind in ("model", "naive") for refit in REFITS},
+              "true maps, fixed lobe", round(np.mean([r["true_maps_relit"]
+                                                      for r in kept]) / naive, 3))
 
 
 if __name__ == "__main__":
