@@ -476,8 +476,8 @@ def labeled_phase_holds(out: Path, schedule: Schedule) -> bool:
     labeled phase of both the schedule it was started with and ``schedule``: its steps are then
     the same under either, since each step's data are drawn from (seed, step) and the learning
     rate depends on the step alone, so the run may continue with ``schedule``'s number of
-    labeled epochs (a longer run, or a shorter one it has not passed). True for a folder
-    without checkpoints or a readable config.json (continue_folder says what is wrong)."""
+    labeled epochs (a longer run, or a shorter one it has not passed). True where the folder
+    has no checkpoint, or no readable config.json (continue_folder then says what is wrong)."""
     checkpoints = checkpoint_files(out / "checkpoints")
     try:
         earlier = int(json.loads((out / "config.json").read_text())["labeled_epochs"])
