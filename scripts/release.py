@@ -62,7 +62,7 @@ from render.common.atomic_files import atomic_path, write_json
 from render.common.errors import InputError
 from render.common.resume import file_digest
 from train.estimation.network_choice import CLASSES, class_model_file, network_choice
-from train.networks.checkpoints import checkpoint_files, checkpoint_step
+from train.networks.checkpoints import checkpoint_files, checkpoint_step, newest_step
 from train.networks.model_files import FORMAT, load_network, model_metadata, save_model
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -150,12 +150,6 @@ def total_steps(network: Network, size: Size) -> int:
     return math.ceil(network.steps * size.step_fraction / per_epoch) * per_epoch
 
 
-def steps_reached(run: Path) -> int:
-    """Optimizer steps of ``run``'s newest checkpoint (0 without one)."""
-    newest = checkpoint_files(run / "checkpoints")
-    return checkpoint_step(newest[-1]) if newest else 0
-
-
 def make_sets(work: Path, size: Size, parallel: int) -> None:
     """make-materials every class and seed of RECIPE into work/sets (kept sets are skipped)."""
     jobs = [(network.name, seed) for network in RECIPE for seed in network.seeds]
@@ -212,7 +206,8 @@ def train_runs(work: Path, size: Size, device: str, minutes: float,
     waiting = {network.name for network in RECIPE}  # runs whose turn in this call is not over
 
     def steps_left(network):
-        return max(0, total_steps(network, size) - steps_reached(run_folder(work, network)))
+        reached = newest_step(run_folder(work, network) / "checkpoints")
+        return max(0, total_steps(network, size) - reached)
 
     def train(network):
         allowance = time_share(deadline - time.monotonic(), parallel, steps_left(network),
@@ -248,7 +243,8 @@ def train_runs(work: Path, size: Size, device: str, minutes: float,
                 elif process.returncode:
                     raise InputError(log, f"sa-train failed (exit status {process.returncode})")
         seconds = record_seconds()
-        record[network.name] = {"steps": steps_reached(run), "of_steps": total_steps(network, size),
+        record[network.name] = {"steps": newest_step(run / "checkpoints"),
+                                "of_steps": total_steps(network, size),
                                 "seconds": round(seconds, 1)}
         waiting.discard(network.name)
         click.echo(json.dumps({"run": network.name, **record[network.name]}))

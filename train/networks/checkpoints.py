@@ -50,6 +50,12 @@ def checkpoint_step(checkpoint: Path) -> int:
     return int(NAME.match(checkpoint.name).group(1))
 
 
+def newest_step(folder: str | Path) -> int:
+    """Optimizer steps of the newest checkpoint in ``folder`` (0 without one)."""
+    newest = checkpoint_files(folder)
+    return checkpoint_step(newest[-1]) if newest else 0
+
+
 def load_checkpoint(path: str | Path) -> dict[str, Any]:
     """The state dict of a checkpoint file, checked to be one of ours. It is read with torch's
     safe loader (``weights_only=True``), so a file carrying pickled code is refused without

@@ -47,8 +47,8 @@ from train.data.unlabeled_data import UnlabeledImages
 from train.data.unlabeled_selection import select_matching
 from train.networks.checkpoints import (
     checkpoint_files,
-    checkpoint_step,
     load_checkpoint,
+    newest_step,
     save_checkpoint,
 )
 from train.networks.model_files import load_network
@@ -478,13 +478,12 @@ def labeled_phase_holds(out: Path, schedule: Schedule) -> bool:
     rate depends on the step alone, so the run may continue with ``schedule``'s number of
     labeled epochs (a longer run, or a shorter one it has not passed). True where the folder
     has no checkpoint, or no readable config.json (continue_folder then says what is wrong)."""
-    checkpoints = checkpoint_files(out / "checkpoints")
     try:
         earlier = int(json.loads((out / "config.json").read_text())["labeled_epochs"])
     except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError):
         return True
     labeled_steps = schedule.steps_per_epoch * min(earlier, schedule.labeled_epochs)
-    return not checkpoints or checkpoint_step(checkpoints[-1]) <= labeled_steps
+    return newest_step(out / "checkpoints") <= labeled_steps
 
 
 def _log_interval(run_state, interval, interval_start, index):
