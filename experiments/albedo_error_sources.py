@@ -8,9 +8,10 @@ estimate's albedo A (3, S, S) is refit by oracle gains against the truth T, leas
 oracle white balance). The relit RMSE of the estimate with each refit albedo (lobe and normals
 unchanged), over the relit RMSE of the naive baseline as it is, says what a perfect white
 balance, or a perfect exposure, would gain; ``true_maps`` is the naive lobe with the
-truth's albedo and normals (what maps alone could reach under the fixed lobe). Photos, probes
-and relights are those of scripts/real_validation.py's validation (the same 240 photos). Writes OUT/albedo_sources.json
-and prints the ratios of means per fold and over all.
+truth's albedo and normals (what maps alone could reach under the fixed lobe). The photos, their
+truth, relight draws and plastic's estimates are experiments/lobe_policies.py's cache in OUT
+(made there when missing): the real validation's 240 photos. Writes OUT/albedo_sources.json and
+prints the ratios of means per fold and over all.
 
     .venv/bin/python experiments/albedo_error_sources.py --out OUT [--samples 60]
 """
@@ -23,25 +24,11 @@ import click
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from real_validation import FOLDS, SHARED, linked_folder, split_probe_folder  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from lobe_policies import FOLDS, cache_fold, probe_bank, with_lobe  # noqa: E402
 
 from render.common.exposure import expose  # noqa: E402
-from render.common.probes import find_probes, load_probe  # noqa: E402
-from render.torch_renderer.renderer import ProbeBank  # noqa: E402
-from train.data.photos import read_photo  # noqa: E402
-from train.estimation.network_choice import network_choice  # noqa: E402
-from train.evaluation.estimate_evaluation import (  # noqa: E402
-    EvaluationConfig,
-    as_photo_file,
-    model_estimate,
-    naive_estimate,
-    novel_lightings,
-    relit_rmse,
-    relit_under,
-    test_samples,
-)
-from train.training.losses import maps_at_size  # noqa: E402
+from train.evaluation.estimate_evaluation import relit_rmse, relit_under  # noqa: E402
 
 REFITS = ("as_is", "scalar", "channel")
 
@@ -63,40 +50,26 @@ def refit_albedo(albedo: torch.Tensor, truth: torch.Tensor, refit: str) -> torch
 @click.option("--relights", default=3, show_default=True)
 def main(out, samples, relights):
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    probes = split_probe_folder(out, "validation")
-    probe_files = find_probes(probes)
-    probe_names = [path.stem for path in probe_files]
-    bank = ProbeBank([load_probe(path).radiance for path in probe_files])
-    choice = network_choice(None, "unknown")
+    bank, _ = probe_bank(out)
     rows = []
-    for fold, names in FOLDS.items():
-        sets = linked_folder(out / "sets" / fold, names, SHARED / "svbrdfs")
-        cfg = EvaluationConfig(out=str(out / fold), probes=str(probes), materials=str(sets),
-                               samples=samples, relights=relights)
-        for i, (image, truth, own_probe, name) in enumerate(
-                test_samples(cfg, bank, probe_names)):
-            photo = read_photo(as_photo_file(image, out, "photo"), choice.input_size)
-            truth = maps_at_size(truth, choice.input_size)
-            probe_index, rotation = novel_lightings(np.random.default_rng([cfg.seed, 2, i]),
-                                                    own_probe, probe_names, (), relights)
-            truth_hdr = relit_under(truth, bank, probe_index, rotation)
+    for fold in FOLDS:
+        for photo in cache_fold(out, fold, samples, relights):
+            truth, lighting = photo["truth"], (photo["probe_index"], photo["rotation"])
+            truth_hdr = relit_under(truth, bank, *lighting)
             relit_truth = expose(truth_hdr)
-            row = {"fold": fold, "sample": name}
-            for kind, estimate in (("model", model_estimate(choice, photo)[0]),
-                                   ("naive", naive_estimate(photo))):
+            row = {"fold": fold, "set": photo["set"]}
+            for kind, estimate in (("model", with_lobe(photo["plastic"], 0.0)),
+                                   ("naive", photo["naive"])):
                 for refit in REFITS:
                     albedo = refit_albedo(estimate["albedo"], truth["albedo"], refit)
                     row[f"{kind}_{refit}_relit"] = relit_rmse(
-                        estimate | {"albedo": albedo}, bank, probe_index, rotation,
-                        truth_hdr, relit_truth)
+                        estimate | {"albedo": albedo}, bank, *lighting, truth_hdr, relit_truth)
                     row[f"{kind}_{refit}_albedo"] = float(torch.sqrt(torch.mean(
                         (albedo - truth["albedo"]) ** 2)))
             true_maps = {"albedo": truth["albedo"], "normal": truth["normal"]}
-            row["true_maps_relit"] = relit_rmse(naive_estimate(photo) | true_maps, bank,
-                                                probe_index, rotation, truth_hdr, relit_truth)
+            row["true_maps_relit"] = relit_rmse(photo["naive"] | true_maps, bank, *lighting,
+                                                truth_hdr, relit_truth)
             rows.append(row)
-            print(json.dumps(row), flush=True)
     (out / "albedo_sources.json").write_text(json.dumps(rows, indent=1))
     for fold in (*FOLDS, "all"):
         kept = [row for row in rows if fold in ("all", row["fold"])]
