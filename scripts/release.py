@@ -26,11 +26,12 @@ Into WORK, each step kept where done, so that the same command continues a cut-o
 
 Time: the runs share ``--train-minutes``. Each is given the share of the minutes left that its
 steps left are of the steps left of the runs whose turn in this call is not over (times
-``--parallel``, the runs trained at once; the last run gets what is left), and stopped when
-that is spent; its newest checkpoint is then exported and card.md says how many of
-its steps it reached. A later call continues the runs towards their steps; the validation and
-the test are measured once every run has all its steps (an unfinished release's card has the
-runs' table only: on a 2-core CPU the measurement takes 15 to 26 minutes).
+``--parallel``, the runs trained at once; the last run gets what is left), and stopped (after
+its step, checkpointed) when that is spent; its newest checkpoint is then exported and card.md
+says how many of its steps it reached. A later call continues the runs towards their steps;
+the validation and the test are measured once every run has all its steps (an unfinished
+release's card has the runs' table only: on a 2-core CPU the measurement takes 15 to 26
+minutes).
 ``--size toy`` is the
 same pipeline on a few small sets, a small network and a few photos (minutes on a CPU; the
 tests run it); ``full`` is the release on a GPU, ``cpu`` the same at an eighth of the steps
@@ -238,8 +239,8 @@ def train_runs(work: Path, size: Size, device: str, minutes: float,
                     except subprocess.TimeoutExpired:
                         record_seconds()
                 if process.poll() is None:
-                    process.terminate()  # checkpoints are written whole: the newest is kept
-                    process.wait()
+                    process.terminate()  # sa-train writes the checkpoint of its step and
+                    process.wait()  # exits (train/training/interruption.py)
                 elif process.returncode:
                     raise InputError(log, f"sa-train failed (exit status {process.returncode})")
         seconds = record_seconds()

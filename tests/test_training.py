@@ -3,6 +3,8 @@ self-augmented minibatch."""
 
 import dataclasses
 import json
+import os
+import signal
 import subprocess
 import sys
 
@@ -23,7 +25,12 @@ from train.cli.sa_evaluate import main as sa_evaluate
 from train.cli.sa_train import main as sa_train
 from train.data.map_samples import MapSampler
 from train.evaluation.estimate_evaluation import relit_rmse, relit_under
-from train.networks.checkpoints import checkpoint_files, load_checkpoint
+from train.networks.checkpoints import (
+    checkpoint_files,
+    checkpoint_step,
+    load_checkpoint,
+    newest_step,
+)
 from train.networks.model_files import load_network, save_model
 from train.networks.svbrdf_net import NetworkConfig, SVBRDFNet
 from train.training.losses import LABELS, RELIT_LOSS_FORMS, losses, relit_loss
@@ -135,6 +142,17 @@ def test_estimate_refuses_bad_photos_and_foreign_checkpoints(trained_run, tmp_pa
     assert foreign.exit_code != 0 and "not an sa-svbrdf checkpoint" in foreign.output
 
 
+def assert_same_run(straight, other, steps):
+    """The newest checkpoints of two run folders hold ``steps`` steps, bit-identical weights
+    and the same test evaluations."""
+    expected = load_checkpoint(checkpoint_files(straight / "checkpoints")[-1])
+    got = load_checkpoint(checkpoint_files(other / "checkpoints")[-1])
+    assert got["step"] == expected["step"] == steps
+    for name, tensor in expected["model"].items():
+        assert torch.equal(tensor, got["model"][name]), name
+    assert got["history"]["test"] == expected["history"]["test"]
+
+
 def test_resuming_gives_the_weights_of_an_uninterrupted_run(dataset, tmp_path):
     options = ["--unlabeled", str(dataset), "--labeled-epochs", "1", "--self-augmented-epochs",
                "1", "--checkpoint-every", "3"]
@@ -157,12 +175,39 @@ def test_resuming_gives_the_weights_of_an_uninterrupted_run(dataset, tmp_path):
     assert resumed.exit_code == 0, resumed.output
     assert first.stat().st_ino == inode  # resumed from it: a restart would have rewritten it
     assert json.loads((moved / "config.json").read_text())["out"] == str(moved)
-    straight = load_checkpoint(checkpoint_files(tmp_path / "straight" / "checkpoints")[-1])
-    again = load_checkpoint(checkpoint_files(moved / "checkpoints")[-1])
-    assert again["step"] == straight["step"] == 12
-    for name, tensor in straight["model"].items():
-        assert torch.equal(tensor, again["model"][name]), name
-    assert again["history"]["test"] == straight["history"]["test"]
+    assert_same_run(tmp_path / "straight", moved, steps=12)
+
+
+def test_a_signal_stops_a_run_at_its_step_and_the_run_continues_without_loss(
+        dataset, tmp_path, monkeypatch):
+    """SIGTERM during step 7 (checkpoints every 3 steps and at step 4, the labeled epoch's end):
+    the run finishes the step, writes the checkpoint of step 7, exits 143 and gives back the
+    handler it found; re-run, it ends with the weights of an uninterrupted run. A second signal
+    in the same step changes nothing."""
+    options = ["--unlabeled", str(dataset), "--labeled-epochs", "1", "--self-augmented-epochs",
+               "1", "--checkpoint-every", "3", "--log-every", "100"]
+    assert train(dataset, tmp_path / "straight", *options).exit_code == 0
+    take_step = Run.train_step
+
+    def signalled_step(run_state, index):
+        terms = take_step(run_state, index)
+        if index == 6:
+            os.kill(os.getpid(), signal.SIGTERM)
+            os.kill(os.getpid(), signal.SIGINT)
+        return terms
+
+    before = signal.getsignal(signal.SIGTERM)
+    stopped_run = tmp_path / "stopped"
+    monkeypatch.setattr(Run, "train_step", signalled_step)
+    stopped = train(dataset, stopped_run, *options)
+    monkeypatch.undo()
+    assert stopped.exit_code == 128 + signal.SIGTERM, stopped.output
+    assert "stopped by SIGTERM at step 7" in stopped.output
+    assert signal.getsignal(signal.SIGTERM) is before
+    assert [checkpoint_step(p) for p in checkpoint_files(stopped_run / "checkpoints")] == [4, 6, 7]
+    resumed = train(dataset, stopped_run, *options)
+    assert resumed.exit_code == 0, resumed.output
+    assert_same_run(tmp_path / "straight", stopped_run, steps=12)
 
 
 def test_a_labeled_run_continues_into_a_longer_one(dataset, tmp_path):
@@ -172,15 +217,10 @@ def test_a_labeled_run_continues_into_a_longer_one(dataset, tmp_path):
     assert train(dataset, tmp_path / "straight", "--labeled-epochs", "2", *options).exit_code == 0
     grown = tmp_path / "grown"
     assert train(dataset, grown, "--labeled-epochs", "1", *options).exit_code == 0
-    one_epoch = load_checkpoint(checkpoint_files(grown / "checkpoints")[-1])["step"]
+    one_epoch = newest_step(grown / "checkpoints")
     longer = train(dataset, grown, "--labeled-epochs", "2", *options)
     assert longer.exit_code == 0, longer.output
-    straight = load_checkpoint(checkpoint_files(tmp_path / "straight" / "checkpoints")[-1])
-    again = load_checkpoint(checkpoint_files(grown / "checkpoints")[-1])
-    assert again["step"] == straight["step"] == 2 * one_epoch
-    for name, tensor in straight["model"].items():
-        assert torch.equal(tensor, again["model"][name]), name
-    assert again["history"]["test"] == straight["history"]["test"]
+    assert_same_run(tmp_path / "straight", grown, steps=2 * one_epoch)
     shorter = train(dataset, grown, "--labeled-epochs", "1", *options)  # it has passed epoch 1
     assert shorter.exit_code != 0 and "(differing: labeled_epochs)" in shorter.output
 

@@ -4,6 +4,7 @@ import dataclasses
 import json
 import logging
 import os
+import signal
 from typing import Any
 
 import click
@@ -17,6 +18,7 @@ from train.networks.svbrdf_net import (
     SMALL_CPU_CONFIG,
     NetworkConfig,
 )
+from train.training.interruption import TrainingStopped
 from train.training.losses import ALBEDO_LOSSES, RELIT_LOSS_FORMS
 from train.training.optimization import OptimizerConfig
 from train.training.trainer import RELIT_PARTNERS, TrainConfig, run
@@ -124,6 +126,9 @@ def main(network_name: str, input_size: int | None, width: int | None, levels: i
         history = run(cfg)
     except (InputError, ValueError) as error:
         raise click.ClickException(str(error)) from None
+    except TrainingStopped as stopped:  # exit status 128 + signal, as if the signal had ended it
+        click.echo(f"sa-train: {stopped}", err=True)
+        raise SystemExit(128 + (stopped.signal_number or signal.SIGTERM)) from None
     if history["test"]:
         click.echo(json.dumps({"final_test": history["test"][-1]}))
 

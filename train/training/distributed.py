@@ -13,7 +13,8 @@
 
 Only rank 0 writes (checkpoints, logs, TensorBoard, pictures) and evaluates; checkpoints hold
 the plain network, so a run resumes with any number of processes. Processes use the gloo
-backend on CPUs and NCCL on GPUs.
+backend on CPUs; on GPUs, NCCL for the network's tensors and gloo for the few
+numbers (losses, stop requests) they exchange on the CPU.
 """
 
 import os
@@ -68,6 +69,15 @@ class Distributed:
         dist.all_reduce(tensor)
         return {name: float(value) / self.world_size for name, value in zip(names, tensor)}
 
+    def any(self, flag: bool) -> bool:
+        """Whether ``flag`` is true in any process (``flag`` itself on one process): every
+        process gets the same answer, so all take the same branch."""
+        if not self.enabled:
+            return flag
+        tensor = torch.tensor([int(flag)])
+        dist.all_reduce(tensor, op=dist.ReduceOp.MAX)
+        return bool(tensor.item())
+
     def barrier(self) -> None:
         if self.enabled:
             dist.barrier()
@@ -83,7 +93,8 @@ def start(device_name: str) -> Distributed:
         on_gpu = device_name.startswith("cuda")
         if on_gpu:
             torch.cuda.set_device(place.local_rank)
-        dist.init_process_group("nccl" if on_gpu else "gloo")
+        # NCCL takes CUDA tensors only; gloo takes the CPU ones (Distributed.mean, .any).
+        dist.init_process_group("cpu:gloo,cuda:nccl" if on_gpu else "gloo")
     return place
 
 

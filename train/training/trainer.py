@@ -54,6 +54,7 @@ from train.networks.checkpoints import (
 from train.networks.model_files import load_network
 from train.networks.svbrdf_net import PARTS, NetworkConfig, SVBRDFNet
 from train.training import distributed
+from train.training.interruption import StopRequest, TrainingStopped
 from train.training.losses import ALBEDO_LOSSES, RELIT_LOSS_FORMS, losses, relit_loss
 from train.training.optimization import OptimizerConfig, make_optimizer
 from train.training.schedule import SELF_AUGMENTED, Schedule, labeled_batch_indices
@@ -445,29 +446,41 @@ def _train(cfg, place):
              schedule.steps_per_epoch, place.world_size)
     writer = SummaryWriter(str(out / "tensorboard")) if place.is_main else None
     interval, interval_start = [], time.perf_counter()
-    for index in range(run_state.step, schedule.total_steps):
-        step = schedule.step(index)
-        terms = run_state.train_step(index)
-        if not place.is_main:
-            continue
-        interval.append((step.kind, terms))
-        for name, value in terms.items():
-            writer.add_scalar(f"train/{step.kind}/{name}", value, index + 1)
-        writer.add_scalar("train/learning_rate", run_state.scheduler.get_last_lr()[0], index + 1)
-        checkpoint_due = (index + 1) % cfg.checkpoint_every == 0
-        # A logged interval never spans a checkpoint, so a resumed run logs the same means.
-        if (index + 1) % cfg.log_every == 0 or schedule.ends_epoch(index) or checkpoint_due:
-            interval_start = _log_interval(run_state, interval, interval_start, index)
-            interval = []
-        if schedule.ends_epoch(index):
-            _evaluate(run_state, writer, step.epoch)
-            save_checkpoint(out / "checkpoints", run_state.state())
-            interval_start = time.perf_counter()  # ms per step counts training steps only
-        elif checkpoint_due:
+    with StopRequest() as stop:
+        for index in range(run_state.step, schedule.total_steps):
+            if place.any(stop.requested):
+                break
+            step = schedule.step(index)
+            terms = run_state.train_step(index)
+            if not place.is_main:
+                continue
+            interval.append((step.kind, terms))
+            for name, value in terms.items():
+                writer.add_scalar(f"train/{step.kind}/{name}", value, index + 1)
+            writer.add_scalar("train/learning_rate", run_state.scheduler.get_last_lr()[0],
+                              index + 1)
+            checkpoint_due = (index + 1) % cfg.checkpoint_every == 0
+            # A logged interval never spans a checkpoint, so a resumed run logs the same means.
+            if (index + 1) % cfg.log_every == 0 or schedule.ends_epoch(index) or checkpoint_due:
+                interval_start = _log_interval(run_state, interval, interval_start, index)
+                interval = []
+            if schedule.ends_epoch(index):
+                _evaluate(run_state, writer, step.epoch)
+                save_checkpoint(out / "checkpoints", run_state.state())
+                interval_start = time.perf_counter()  # ms per step counts training steps only
+            elif checkpoint_due:
+                save_checkpoint(out / "checkpoints", run_state.state())
+    stopped = run_state.step < schedule.total_steps
+    if stopped and place.is_main:
+        if interval:
+            _log_interval(run_state, interval, interval_start, run_state.step - 1)
+        if newest_step(out / "checkpoints") < run_state.step:
             save_checkpoint(out / "checkpoints", run_state.state())
     if writer is not None:
         writer.close()
     place.barrier()  # every process returns once the last checkpoint is written
+    if stopped:
+        raise TrainingStopped(stop.signal_number, run_state.step)
     return run_state.history
 
 
