@@ -381,6 +381,8 @@ def fault_photos():
     return paths
 KILLS = 5
 """SIGKILLs per command, each at a seeded random moment, each followed by the same command."""
+STOPS = 3
+"""SIGTERMs to sa-train, each at a seeded random moment, each followed by the same command."""
 FILE_SIZE_LIMITS = {"render-dataset": 20_000, "sa-train": 200_000, "sa-validate": 5_000,
                     "sa-estimate": 20_000, "sa-evaluate": 2_000}
 """Bytes a file may grow to in the full-disk cases (RLIMIT_FSIZE): less than some output."""
@@ -389,6 +391,10 @@ FAULTS = [
        "the same files (dataset, estimates; times left out), weights and history (training) "
        "or results (validation, evaluation) as an uninterrupted run; no partial file under a "
        "final name") for command in FAULT_COMMANDS],
+    ("sa-train", f"SIGTERM at {STOPS} seeded random moments, then the same command",
+     "it stops after the step it is taking, with that step's checkpoint and a line `stopped "
+     "by SIGTERM at step N`, exit status 143 (a signal before training starts ends it as "
+     "SIGTERM does); the next run ends with an uninterrupted run's weights and evaluations"),
     ("sa-estimate, sa-evaluate, render-dataset, sa-train, sa-validate",
      "a second run on a folder a live run writes into",
      "`Error: OUT: another run is writing into this folder (COMMAND, process PID) ...`; a "

@@ -3,9 +3,10 @@
 moments, then run again with the same command, end exactly as an uninterrupted run: identical
 dataset files, bit-identical weights and history, identical validation results, identical
 estimate files (times left out), identical evaluation results; and no file under its final
-name is ever partial. Also: a disk that fills up (a file-size
-limit) and a truncated checkpoint give one-line errors naming the path, and the next good run
-completes. Marked slow: CI runs them after the quick suite (``make test-slow``).
+name is ever partial; ``sa-train`` stopped by SIGTERM keeps every step it took. Also: a disk
+that fills up (a file-size limit) and a truncated checkpoint give one-line errors naming the
+path, and the next good run completes. Marked slow: CI runs them after the quick suite
+(``make test-slow``).
 
 Not covered: a read-only output folder. These tests run as root on CI, and root writes into
 read-only folders, so the case cannot be produced here.
@@ -15,8 +16,10 @@ import json
 import os
 import re
 import resource
+import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -28,7 +31,7 @@ from render.common.images import read_image
 
 from tests.conftest import REPO
 from tests.reliability_cases import FAULT_COMMANDS as COMMANDS
-from tests.reliability_cases import FILE_SIZE_LIMITS, KILLS
+from tests.reliability_cases import FILE_SIZE_LIMITS, KILLS, STOPS
 from train.networks.checkpoints import checkpoint_files, load_checkpoint
 
 pytestmark = pytest.mark.slow
@@ -110,21 +113,23 @@ def result_of(command, out):
             if name.endswith(".json")}
 
 
-def kill_at_random_moment(command, out, rng, files_at_end):
-    """Start ``command`` and SIGKILL it once ``out`` holds a random number of its final files
-    (fewer than ``files_at_end``), plus a random fraction of a second; returns True if it was
-    killed (False: it finished first)."""
+def signal_at_random_moment(command, out, rng, files_at_end, signal_number=signal.SIGKILL):
+    """Start ``command`` and send it ``signal_number`` once ``out`` holds a random number of
+    its final files (fewer than ``files_at_end``), plus a random fraction of a second; returns
+    its exit status and stderr, or None if it finished before the signal."""
     module, argv = COMMANDS[command]
     target, extra = int(rng.integers(files_at_end)), float(rng.uniform(0.0, 0.5))
-    process = subprocess.Popen([sys.executable, "-m", module, *argv(out)], cwd=REPO,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    while process.poll() is None and (not out.exists() or len(files(out)) < target):
-        time.sleep(0.005)
-    time.sleep(extra)
-    killed = process.poll() is None
-    process.kill()
-    process.wait()
-    return killed
+    with tempfile.TemporaryFile("w+") as stderr:  # a file: a full pipe would block the run
+        process = subprocess.Popen([sys.executable, "-m", module, *argv(out)], cwd=REPO,
+                                   stdout=subprocess.DEVNULL, stderr=stderr)
+        while process.poll() is None and (not out.exists() or len(files(out)) < target):
+            time.sleep(0.005)
+        time.sleep(extra)
+        signalled = process.poll() is None
+        process.send_signal(signal_number)
+        process.wait()
+        stderr.seek(0)
+        return (process.returncode, stderr.read()) if signalled else None
 
 
 @pytest.fixture(scope="module")
@@ -151,13 +156,48 @@ def test_killed_runs_end_as_uninterrupted_ones(command, uninterrupted, tmp_path)
         if killed == KILLS:
             break
         out = tmp_path / f"attempt-{attempt}"
-        killed += kill_at_random_moment(command, out, rng, files_at_end)
+        killed += signal_at_random_moment(command, out, rng, files_at_end) is not None
         for path in files(out).values():  # never a partial file under its final name
             assert_complete(path)
         again = run(command, out)
         assert again.returncode == 0, again.stderr
         assert result_of(command, out) == expected, f"attempt {attempt}"
     assert killed == KILLS
+
+
+def test_stopped_training_loses_no_step_and_ends_as_an_uninterrupted_run(uninterrupted,
+                                                                         tmp_path):
+    """STOPS runs sent SIGTERM while they work (a moment after the run ended is drawn again;
+    here all 3 came during training, at least one must): each stops with the checkpoint of the
+    step it took last, and the same command then ends
+    with an uninterrupted run's weights and test evaluations (its train history has one more
+    logged interval, the one the stop closed)."""
+    expected, files_at_end = uninterrupted["sa-train"]
+    rng = np.random.default_rng(len(COMMANDS))
+    stopped, in_training = 0, 0
+    for attempt in range(4 * STOPS):
+        if stopped == STOPS:
+            break
+        out = tmp_path / f"attempt-{attempt}"
+        result = signal_at_random_moment("sa-train", out, rng, files_at_end, signal.SIGTERM)
+        if result is not None:
+            status, stderr = result
+            stopped += 1
+            if status == 128 + signal.SIGTERM:
+                step = int(re.search(r"stopped by SIGTERM at step (\d+):", stderr).group(1))
+                newest = load_checkpoint(checkpoint_files(out / "checkpoints")[-1])
+                assert newest["step"] == step == newest["history"]["train"][-1]["step"]
+                in_training += 1
+            else:  # the signal came before the training loop (SIGTERM's own end) or in its
+                assert status in (-signal.SIGTERM, 0), stderr[-2000:]  # last step (finished)
+        for path in files(out).values():
+            assert_complete(path)
+        again = run("sa-train", out)
+        assert again.returncode == 0, again.stderr
+        resumed = result_of("sa-train", out)
+        assert resumed["weights"] == expected["weights"], f"attempt {attempt}"
+        assert resumed["history"]["test"] == expected["history"]["test"], f"attempt {attempt}"
+    assert stopped == STOPS and in_training > 0
 
 
 def limit_file_size(limit_bytes):
