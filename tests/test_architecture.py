@@ -12,7 +12,7 @@ from tests.conftest import REPO
 PACKAGES = ("render", "train")
 ORDER = {
     "render": ("common", "mitsuba_reference", "materials", ("dataset", "torch_renderer"), "cli"),
-    "train": ("networks", "data", "training", "fits", "estimation", "evaluation",
+    "train": ("networks", "data", "training", "estimation", "evaluation",
               "brdf_validation", "cli"),
 }
 """Each package's sub-packages in dependency order (docs/architecture.md): a module may import
@@ -151,3 +151,7 @@ def test_every_sub_package_is_in_the_order_and_dependencies_point_one_way():
     for module in graph:
         rank(module)
     assert order_violations(graph) == []
+    for package, order in ORDER.items():  # and the order names no package that is gone
+        for name in (n for entry in order for n in (entry if isinstance(entry, tuple)
+                                                    else (entry,))):
+            assert (REPO / package / name / "__init__.py").is_file(), f"{package}/{name}"
