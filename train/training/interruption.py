@@ -22,8 +22,9 @@ class TrainingStopped(Exception):
         self.signal_number = signal_number  # None: another torchrun process took the signal
         self.step = step
         cause = signal.Signals(signal_number).name if signal_number else "another process"
-        super().__init__(f"stopped by {cause} at step {step}: its checkpoint is written, "
-                         f"the same command continues the run")
+        kept = "its checkpoint is written" if step else "no step was taken"
+        super().__init__(f"stopped by {cause} at step {step}: {kept}, the same command "
+                         f"continues the run")
 
 
 class StopRequest:
