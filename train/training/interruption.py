@@ -3,7 +3,9 @@
 
 The trainer then writes a checkpoint of the steps done and raises TrainingStopped, so the same
 command continues the run from there, exactly as if it had not stopped, and no step is lost.
-A second signal while the step finishes is ignored: the run stops once, with its checkpoint.
+A second signal while the step finishes is ignored, so the run stops once, with its checkpoint
+(Ctrl-C under torchrun reaches each worker twice: from the terminal and from torchrun); SIGKILL
+ends a run at once, losing the steps since its last checkpoint.
 Under torchrun the processes agree on the step at which they stop (Distributed.any).
 """
 
