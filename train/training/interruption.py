@@ -3,10 +3,10 @@
 
 The trainer then writes a checkpoint of the steps done and raises TrainingStopped, so the same
 command continues the run from there, exactly as if it had not stopped, and no step is lost.
-A second signal while the step finishes is ignored, so the run stops once, with its checkpoint
-(Ctrl-C under torchrun reaches each worker twice: from the terminal and from torchrun); SIGKILL
-ends a run at once, losing the steps since its last checkpoint.
-Under torchrun the processes agree on the step at which they stop (Distributed.any).
+A second signal while the step finishes (Ctrl-C pressed again) is ignored, so the run stops
+once, with its checkpoint; SIGKILL ends a run at once, losing the steps since its last
+checkpoint. Under torchrun, which forwards the signal to its workers (and kills those still
+running 30 s later), the processes agree on the step at which they stop (Distributed.any).
 """
 
 import signal
