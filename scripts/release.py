@@ -21,17 +21,20 @@ Into WORK, each step kept where done, so that the same command continues a cut-o
                                   sa-estimate --class choice (the networks, and unknown:
                                   plastic's maps with the fixed lobe), on ``--device`` too
                                   (an evaluation of an older export is made again)
+    procedural/                   scripts/procedural_test.py: the card's larger procedural
+                                  test, each network and the shipped file of its class on the
+                                  same Mitsuba renders (release/, shipped/)
     card.md, release.json         the card's tables: each run's steps and minutes, the
-                                  validation per fold and choice, the test
+                                  validation per fold and choice, the test, the larger test
 
 Time: the runs share ``--train-minutes``. Each is given the share of the minutes left that its
 steps left are of the steps left of the runs whose turn in this call is not over (times
 ``--parallel``, the runs trained at once; the last run gets what is left), and stopped (after
 its step, checkpointed) when that is spent; its newest checkpoint is then exported and card.md
 says how many of its steps it reached. A later call continues the runs towards their steps;
-the validation and the test are measured once every run has all its steps (an unfinished
-release's card has the runs' table only: on a 2-core CPU the measurement takes 15 to 26
-minutes).
+the validation, the test and the larger test are measured once every run has all its steps (an
+unfinished release's card has the runs' table only; on a 2-core CPU the real sets take 15 to 26
+minutes, the larger test is not yet timed there).
 ``--size toy`` is the
 same pipeline on a few small sets, a small network and a few photos (minutes on a CPU; the
 tests run it); ``full`` is the release on a GPU, ``cpu`` the same at an eighth of the steps
@@ -67,6 +70,9 @@ from train.networks.checkpoints import checkpoint_files, checkpoint_step, newest
 from train.networks.model_files import FORMAT, load_network, model_metadata, save_model
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from compare_evaluations import compare, per_photo  # noqa: E402
+from procedural_test import SIZES as PROCEDURAL_SIZES  # noqa: E402
+from procedural_test import evaluate_class  # noqa: E402
 from real_validation import (  # noqa: E402
     SHARED,
     TEST_PROBES,
@@ -123,14 +129,16 @@ class Size:
     photos: int
     """Validation (and test) photos per fold and network."""
     relights: int
+    procedural_test: str
+    """Size of scripts/procedural_test.py's test."""
 
 
-SIZES = {"full": Size(50, 512, "compact", 1.0, 3200, 16, 512, 100, 60, 3),
-         "cpu": Size(50, 512, "compact", 0.125, 3200, 16, 512, 100, 60, 3),
-         "toy": Size(1, 64, "small", 0.0005, 16, 4, 128, 2, 2, 1)}
+SIZES = {"full": Size(50, 512, "compact", 1.0, 3200, 16, 512, 100, 60, 3, "full"),
+         "cpu": Size(50, 512, "compact", 0.125, 3200, 16, 512, 100, 60, 3, "full"),
+         "toy": Size(1, 64, "small", 0.0005, 16, 4, 128, 2, 2, 1, "toy")}
 """``full`` is meant for one GPU call (12,400 steps); ``cpu`` trains an eighth of the steps,
-about 85 minutes of a 2-core CPU, so that a release fits one working session there; ``toy``
-runs in minutes (the tests)."""
+about 85 minutes of a 2-core CPU, so that a release fits one working session there (the larger
+test's renders, made once per work folder, come on top); ``toy`` runs in minutes (the tests)."""
 
 
 def training_probes(shared: Path) -> list[str]:
@@ -298,17 +306,52 @@ def evaluate(work: Path, split: str, size: Size, shared: Path, device: str) -> d
     export is made again."""
     out, folds = work / split, list(split_folds(split))
     for choice in CLASSES:
-        path = class_model_file(choice, work / "files")
         for fold in folds:
-            config = out / fold / choice / "config.json"
-            if config.is_file():
-                models = json.loads(config.read_text()).get("models", {})
-                if file_digest(path) not in models.values():
-                    shutil.rmtree(config.parent)
+            drop_stale(out / fold / choice, class_model_file(choice, work / "files"))
         evaluate_choice(out, split, choice,
                         lambda fold, c=choice: network_choice(None, c, device, work / "files"),
                         size.photos, size.relights, shared=shared, device=device)
     return summarize(out, folds, list(CLASSES))
+
+
+def drop_stale(evaluation: Path, model_file: Path) -> None:
+    """Remove the sa-evaluate folder ``evaluation`` if it evaluated another file than
+    ``model_file`` (an older export), so that it is made again."""
+    config = evaluation / "config.json"
+    if config.is_file():
+        models = json.loads(config.read_text()).get("models", {})
+        if file_digest(model_file) not in models.values():
+            shutil.rmtree(evaluation)
+
+
+def procedural_table(work: Path, size: Size, shared: Path, device: str) -> list[dict]:
+    """scripts/procedural_test.py in work/procedural: each network of the release and the
+    shipped file of its class on the same renders; per class both ratios (relit RMSE over the
+    naive baseline's), their paired difference with its standard error, and the spread of the
+    release's ratio over the sets (scripts/compare_evaluations.py)."""
+    test_size, rows = PROCEDURAL_SIZES[size.procedural_test], []
+    for network in RECIPE:
+        results = {}
+        for name, models in (("shipped", None), ("release", work / "files")):
+            drop_stale(work / "procedural" / name / network.name,
+                       class_model_file(network.name, models))
+            results[name] = per_photo(evaluate_class(work / "procedural", test_size,
+                                                     network.name, models, name, shared,
+                                                     device), "relit_rmse")
+        rows.append({"network": network.name,
+                     **compare(results["shipped"], results["release"], draws=4000, seed=0)})
+    return rows
+
+
+def procedural_markdown(rows: list[dict]) -> str:
+    """The procedural test's table in markdown."""
+    lines = ["| network | photos | shipped file | release | release - shipped (se) | "
+             "release's spread over sets (sd) |", "| --- | --- | --- | --- | --- | --- |"]
+    lines += [f"| {row['network']} | {row['photos']} | {row['base_ratio']:.3f} | "
+              f"{row['new_ratio']:.3f} | {row['paired_difference']:+.3f} "
+              f"({row['standard_error']:.3f}) | {row['new_ratio_bootstrap_sd']:.3f} |"
+              for row in rows]
+    return "\n".join(lines)
 
 
 def write_card(work: Path, command: str, record: dict, tables: dict | None) -> None:
@@ -321,9 +364,12 @@ def write_card(work: Path, command: str, record: dict, tables: dict | None) -> N
     if tables is None:
         lines += ["", "Unfinished: the same command continues the runs; the validation and the "
                       "test are measured when every run has all its steps."]
-    for split in tables or ():
+    for split in ("validation", "test") if tables else ():
         lines += ["", f"**{split}** (relit and albedo RMSE over the naive baseline's)", "",
                   (work / split / "table.md").read_text()]
+    if tables:
+        lines += ["", "**procedural larger test** (relit RMSE over the naive baseline's; "
+                      "scripts/procedural_test.py)", "", procedural_markdown(tables["procedural"])]
     with atomic_path(work / "card.md") as tmp:
         tmp.write_text("\n".join(lines) + "\n")
     write_json(work / "release.json", {"command": command, "machine": machine(),
@@ -366,8 +412,9 @@ def main(out, size_name, train_minutes, device, parallel, shared):
         for network in RECIPE:
             export(work, network, size_name, command)
         finished = all(row["steps"] >= row["of_steps"] for row in record.values())
-        tables = {split: evaluate(work, split, size, shared, device)
-                  for split in ("validation", "test")} if finished else None
+        tables = {**{split: evaluate(work, split, size, shared, device)
+                     for split in ("validation", "test")},
+                  "procedural": procedural_table(work, size, shared, device)} if finished else None
         write_card(work, command, record, tables)
     except InputError as error:
         raise click.ClickException(str(error)) from None

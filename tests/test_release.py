@@ -11,6 +11,9 @@ from safetensors import safe_open
 from tests.conftest import REPO, SHARED_DATA, needs_shared
 
 sys.path.insert(0, str(REPO / "scripts"))
+from procedural_test import HELD_OUT_PAIRS, SEED  # noqa: E402
+from procedural_test import SIZES as PROCEDURAL_SIZES  # noqa: E402
+from procedural_test import groups  # noqa: E402
 from real_validation import FOLDS, TEST_PROBES, VALIDATION_PROBES  # noqa: E402
 from release import (  # noqa: E402
     RECIPE,
@@ -35,6 +38,21 @@ def test_runs_are_whole_epochs():
 
 
 @needs_shared
+def test_the_procedural_test_holds_the_cards_larger_test_and_nothing_trained_on():
+    """At size full: 40 sets in 4 groups of 10 with the real sets, 80 more in 4 groups of 20
+    without, each group under its own pair of held-out probes; sets of the seed no run
+    trains on, lit by probes no run is lit by."""
+    found = groups(PROCEDURAL_SIZES["full"])
+    assert [(name, pair, len(indices), real) for name, pair, indices, real in found] == [
+        ("0", 0, 10, True), ("1", 1, 10, True), ("2", 2, 10, True), ("3", 3, 10, True),
+        ("more-0", 0, 20, False), ("more-1", 1, 20, False), ("more-2", 2, 20, False),
+        ("more-3", 3, 20, False)]
+    assert sorted(i for _, _, indices, _ in found for i in indices) == list(range(120))
+    assert all(SEED not in network.seeds for network in RECIPE)
+    held_out = {probe for pair in HELD_OUT_PAIRS for probe in pair}
+    assert held_out == set(VALIDATION_PROBES) | set(TEST_PROBES)
+
+
 def test_no_run_is_lit_by_a_held_out_probe():
     probes = training_probes(SHARED_DATA)
     held_out = len(VALIDATION_PROBES) + len(TEST_PROBES)
@@ -94,6 +112,12 @@ def test_the_release_at_toy_size(tmp_path):
         assert f"| test | {network.name} | {SIZES['toy'].photos} |" in card
     for fold in (*FOLDS, "test"):  # the estimate for a material of unknown kind
         assert f"| {fold} | unknown | {SIZES['toy'].photos} |" in card
+    procedural = json.loads((work / "release.json").read_text())["procedural"]
+    assert [row["network"] for row in procedural] == [network.name for network in RECIPE]
+    for row in procedural:  # both files on the same photos: each set under its pair's two
+        sets = PROCEDURAL_SIZES["toy"].base + 4 * (row["network"] == "wood")  # probes
+        assert row["photos"] == 2 * sets
+        assert f"| {row['network']} | {row['photos']} | {row['base_ratio']:.3f} |" in card
 
     files = sorted((work / "files").rglob("*.safetensors"))
     before = {path: path.read_bytes() for path in files}
