@@ -7,12 +7,13 @@ Held-out data, never used in training:
     ``more`` sets per class, and the real set materialx_wood (wood);
   - probes: the 8 of HELD_OUT_PAIRS (the release trains under the other shared probes).
 
-The first ``base`` sets of a class are split into 4 groups; group g is rendered with Mitsuba
-(render-dataset, 1 rotation, one crop of the training scale) under the probe pair g, with the
-real sets; the next ``more`` sets likewise, ``more`` / 4 to a pair, without them. sa-evaluate then
-estimates every render with the class's network and relights each estimate under 3 other
-held-out probes (``--relights``). At size ``full`` (40 + 80 sets, 512 px renders, 128 spp) these
-are the renders and photos of the card's larger test: 240 photos a class, 248 for wood.
+The first ``base`` sets of a class are split into 4 groups (at size toy, 1); group g is rendered
+with Mitsuba (render-dataset, 1 rotation, one crop of the training scale) under the probe pair
+g, with the real sets; the next ``more`` sets likewise, ``more`` / 4 to a pair, without them.
+sa-evaluate then estimates every render with the class's network and relights each estimate
+under 3 other held-out probes (``--relights``). At size ``full`` (40 + 80 sets, 512 px renders,
+128 spp) these are the renders and photos of the card's larger test: 240 photos a class, 248 for
+wood.
 
 Into ``--out``, each step kept where done (a re-run continues): ``sets/<class>/`` (make-materials),
 ``probes/`` (the pairs), ``groups/`` (links), ``renders/<group>/`` (render-dataset),
@@ -49,10 +50,12 @@ SEED = 1
 
 @dataclass(frozen=True)
 class TestSize:
+    pairs: int
+    """Probe pairs of HELD_OUT_PAIRS used, the first ones: groups of sets per part."""
     base: int
-    """Sets per class in the first 4 groups (a multiple of 4)."""
+    """Sets per class in the first groups (a multiple of ``pairs``)."""
     more: int
-    """Further sets per class in 4 more groups (a multiple of 4)."""
+    """Further sets per class in as many more groups (a multiple of ``pairs``)."""
     set_resolution: int
     """Side (px) of the make-materials maps."""
     resolution: int
@@ -63,8 +66,8 @@ class TestSize:
     relights: int
 
 
-SIZES = {"full": TestSize(40, 80, 512, 256, 512, 128, 3),
-         "toy": TestSize(4, 0, 64, 32, 64, 4, 1)}
+SIZES = {"full": TestSize(4, 40, 80, 512, 256, 512, 128, 3),
+         "toy": TestSize(1, 2, 0, 64, 32, 64, 4, 1)}
 
 
 def groups(size: TestSize) -> list[tuple[str, int, range, bool]]:
@@ -72,10 +75,10 @@ def groups(size: TestSize) -> list[tuple[str, int, range, bool]]:
     render group of a class."""
     found = []
     for part, first, count in (("", 0, size.base), ("more-", size.base, size.more)):
-        per_pair = count // 4
+        per_pair = count // size.pairs
         found += [(f"{part}{pair}", pair, range(first + pair * per_pair,
                                                 first + (pair + 1) * per_pair), not part)
-                  for pair in range(4) if per_pair]
+                  for pair in range(size.pairs) if per_pair]
     return found
 
 

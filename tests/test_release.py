@@ -114,8 +114,9 @@ def test_the_release_at_toy_size(tmp_path):
         assert f"| {fold} | unknown | {SIZES['toy'].photos} |" in card
     procedural = json.loads((work / "release.json").read_text())["procedural"]
     assert [row["network"] for row in procedural] == [network.name for network in RECIPE]
+    toy = PROCEDURAL_SIZES["toy"]
     for row in procedural:  # both files on the same photos: each set under its pair's two
-        sets = PROCEDURAL_SIZES["toy"].base + 4 * (row["network"] == "wood")  # probes
+        sets = toy.base + toy.pairs * (row["network"] == "wood")  # probes
         assert row["photos"] == 2 * sets
         assert f"| {row['network']} | {row['photos']} | {row['base_ratio']:.3f} |" in card
 
