@@ -355,15 +355,15 @@ def procedural_markdown(rows: list[dict]) -> str:
 
 
 def write_card(work: Path, command: str, record: dict, tables: dict | None) -> None:
-    """card.md and release.json: the machine, the runs, and the validation and the test
-    (``tables``; None while a run is unfinished)."""
+    """card.md and release.json: the machine, the runs, and the validation, the test and the
+    larger test (``tables``; None while a run is unfinished)."""
     lines = [f"Made by `{command}` on {machine()}.", "", "| run | steps | minutes |",
              "| --- | --- | --- |"]
     lines += [f"| {name} | {row['steps']} of {row['of_steps']} | {row['seconds'] / 60:.1f} |"
               for name, row in record.items()]
     if tables is None:
-        lines += ["", "Unfinished: the same command continues the runs; the validation and the "
-                      "test are measured when every run has all its steps."]
+        lines += ["", "Unfinished: the same command continues the runs; the validation, the "
+                      "test and the larger test are measured when every run has all its steps."]
     for split in ("validation", "test") if tables else ():
         lines += ["", f"**{split}** (relit and albedo RMSE over the naive baseline's)", "",
                   (work / split / "table.md").read_text()]
