@@ -379,9 +379,9 @@ def fault_photos():
         photo.crop((100 * k, 100, 100 * k + 96, 196)).save(path)
         paths.append(path)
     return paths
-KILLS = 5
+KILLS = 4
 """SIGKILLs per command, each at a seeded random moment, each followed by the same command."""
-STOPS = 3
+STOPS = 2
 """SIGTERMs to sa-train, each at a seeded random moment, each followed by the same command."""
 FILE_SIZE_LIMITS = {"render-dataset": 20_000, "sa-train": 200_000, "sa-validate": 5_000,
                     "sa-estimate": 20_000, "sa-evaluate": 2_000}

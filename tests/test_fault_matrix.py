@@ -168,7 +168,7 @@ def test_killed_runs_end_as_uninterrupted_ones(command, uninterrupted, tmp_path)
 def test_stopped_training_loses_no_step_and_ends_as_an_uninterrupted_run(uninterrupted,
                                                                          tmp_path):
     """STOPS runs sent SIGTERM while they work (a moment after the run ended is drawn again;
-    here all 3 came during training, at least one must): each stops with the checkpoint of the
+    here both came during training, at least one must): each stops with the checkpoint of the
     step it took last, and the same command then ends
     with an uninterrupted run's weights and test evaluations (its train history has one more
     logged interval, the one the stop closed)."""
