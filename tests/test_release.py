@@ -37,7 +37,6 @@ def test_runs_are_whole_epochs():
             assert steps % per_epoch == 0 and steps >= network.steps * size.step_fraction
 
 
-@needs_shared
 def test_the_procedural_test_holds_the_cards_larger_test_and_nothing_trained_on():
     """At size full: 40 sets in 4 groups of 10 with the real sets, 80 more in 4 groups of 20
     without, each group under its own pair of held-out probes; sets of the seed no run
@@ -53,6 +52,7 @@ def test_the_procedural_test_holds_the_cards_larger_test_and_nothing_trained_on(
     assert held_out == set(VALIDATION_PROBES) | set(TEST_PROBES)
 
 
+@needs_shared
 def test_no_run_is_lit_by_a_held_out_probe():
     probes = training_probes(SHARED_DATA)
     held_out = len(VALIDATION_PROBES) + len(TEST_PROBES)
