@@ -109,11 +109,10 @@ def render_test(work: Path, size: TestSize, material_class: str, shared: Path) -
     return folders
 
 
-def evaluate_class(work: Path, size: TestSize, material_class: str, models: Path | None,
-                   name: str, shared: Path, device: str) -> Path:
-    """sa-evaluate of the class network of ``models`` (None: the shipped files) on every
-    render of the class; returns its results.json."""
-    renders = render_test(work, size, material_class, shared)
+def evaluate_class(work: Path, size: TestSize, material_class: str, renders: list[Path],
+                   models: Path | None, name: str, shared: Path, device: str) -> Path:
+    """sa-evaluate of the class network of ``models`` (None: the shipped files) on the class's
+    ``renders`` (render_test's folders); returns its results.json."""
     every_probe = linked_folder(work / "probes" / "all",
                                 [f"{p}.exr" for pair in HELD_OUT_PAIRS for p in pair],
                                 shared / "probes")
@@ -141,11 +140,12 @@ def evaluate_class(work: Path, size: TestSize, material_class: str, models: Path
               help="The shared data folder (svbrdfs/, probes/).")
 def main(out, models, name, classes, size_name, device, shared):
     try:
+        work, size = Path(out), SIZES[size_name]
         for material_class in classes.split(","):
-            results = evaluate_class(Path(out), SIZES[size_name], material_class,
-                                     Path(models) if models else None, name, Path(shared),
-                                     device)
-            click.echo(results)
+            renders = render_test(work, size, material_class, Path(shared))
+            click.echo(evaluate_class(work, size, material_class, renders,
+                                      Path(models) if models else None, name, Path(shared),
+                                      device))
     except InputError as error:
         raise click.ClickException(str(error)) from None
 

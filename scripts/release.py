@@ -72,7 +72,7 @@ from train.networks.model_files import FORMAT, load_network, model_metadata, sav
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from compare_evaluations import compare, per_photo  # noqa: E402
 from procedural_test import SIZES as PROCEDURAL_SIZES  # noqa: E402
-from procedural_test import evaluate_class  # noqa: E402
+from procedural_test import evaluate_class, render_test  # noqa: E402
 from real_validation import (  # noqa: E402
     SHARED,
     TEST_PROBES,
@@ -329,15 +329,14 @@ def procedural_table(work: Path, size: Size, shared: Path, device: str) -> list[
     shipped file of its class on the same renders; per class both ratios (relit RMSE over the
     naive baseline's), their paired difference with its standard error, and the spread of the
     release's ratio over the sets (scripts/compare_evaluations.py)."""
-    test_size, rows = PROCEDURAL_SIZES[size.procedural_test], []
+    test, test_size, rows = work / "procedural", PROCEDURAL_SIZES[size.procedural_test], []
     for network in RECIPE:
-        results = {}
+        renders, results = render_test(test, test_size, network.name, shared), {}
         for name, models in (("shipped", None), ("release", work / "files")):
-            drop_stale(work / "procedural" / name / network.name,
-                       class_model_file(network.name, models))
-            results[name] = per_photo(evaluate_class(work / "procedural", test_size,
-                                                     network.name, models, name, shared,
-                                                     device), "relit_rmse")
+            drop_stale(test / name / network.name, class_model_file(network.name, models))
+            results[name] = per_photo(evaluate_class(test, test_size, network.name, renders,
+                                                     models, name, shared, device),
+                                      "relit_rmse")
         rows.append({"network": network.name,
                      **compare(results["shipped"], results["release"], draws=4000, seed=0)})
     return rows
