@@ -3,13 +3,16 @@ over Mitsuba rendering the same images to the same error, in the same run. Print
 
     python benchmarks/torch_renderer_throughput.py [--batch 16] [--size 256] [--shared]
         [--device cpu|cuda] [--compare 4] [--reference-spp 4096] [--roughness ALPHA]
+        [--backward]
 
 The batch draws materials, probes, rotations and roughness (log-uniform in [0.02, 1], or the
-one given) at random. For the first ``--compare`` images, a Mitsuba render at ``--reference-spp`` is the
-reference; the torch error is the worst PSNR (exposed, clamped images) against it. Mitsuba
-then renders the same images at 16, 32, 64, ... spp until its worst PSNR against the same
-reference reaches the torch one; its time per image at that count is compared with the torch
-time per image.
+one given) at random. For the first ``--compare`` images, a Mitsuba render at
+``--reference-spp`` is the reference; the torch error is the worst PSNR (exposed, clamped
+images) against it. Mitsuba then renders the same images at 16, 32, 64, ... spp until its worst
+PSNR against the same reference reaches the torch one; its time per image at that count is
+compared with the torch time per image. With ``--backward`` the timed work is a render and its
+backward pass, with gradients in the four maps (a training loss's use), and nothing is
+compared.
 """
 
 import dataclasses
@@ -48,7 +51,10 @@ def worst_psnr(images, references):
 @click.option("--seed", default=0, show_default=True)
 @click.option("--roughness", type=float, default=None,
               help="One Ward alpha for the whole batch (time per roughness); default: random.")
-def main(batch, size, repeats, device, compare, reference_spp, shared, seed, roughness):
+@click.option("--backward", is_flag=True,
+              help="Time a render and its backward pass (gradients in the maps) instead.")
+def main(batch, size, repeats, device, compare, reference_spp, shared, seed, roughness,
+         backward):
     fixed = roughness
     probe_dir, material_dir = ((SHARED / "probes", SHARED / "svbrdfs") if shared
                                else (REPO / "probes", REPO / "scenes" / "materials"))
@@ -71,26 +77,38 @@ def main(batch, size, repeats, device, compare, reference_spp, shared, seed, rou
         roughness=torch.tensor(roughness, dtype=torch.float32, device=device),
         probes=bank, probe_index=torch.tensor(probe_index, device=device),
         rotation_deg=torch.tensor(rotation, dtype=torch.float32, device=device))
-    with torch.no_grad():
-        render(**inputs)  # warm-up: fills the probe bank's caches
-        seconds = []
+    differentiated = ("albedo", "normal", "specular", "roughness")
+
+    def timed_render():
+        if backward:
+            for name in differentiated:
+                inputs[name] = inputs[name].detach().requires_grad_()
+        if device.startswith("cuda"):
+            torch.cuda.synchronize()
+        started = time.perf_counter()
+        images = render(**inputs)
+        if backward:
+            images.sum().backward()
+        if device.startswith("cuda"):
+            torch.cuda.synchronize()
+        return images.detach(), time.perf_counter() - started
+
+    with torch.set_grad_enabled(backward):
+        timed_render()  # warm-up: fills the probe bank's caches
+        images, seconds = None, []
         for _ in range(repeats):
-            if device.startswith("cuda"):
-                torch.cuda.synchronize()
-            started = time.perf_counter()
-            images = render(**inputs)
-            if device.startswith("cuda"):
-                torch.cuda.synchronize()
-            seconds.append(time.perf_counter() - started)
+            images, elapsed = timed_render()
+            seconds.append(elapsed)
     torch_seconds = float(np.median(seconds))
     result = dict(machine=platform.processor() or platform.machine(), device=device,
                   torch_threads=torch.get_num_threads(), batch=batch, size=size,
                   data="shared" if shared else "bundled",
                   roughness="log-uniform [0.02, 1]" if fixed is None else fixed,
+                  timed="render and backward pass" if backward else "render",
                   torch_seconds_per_batch=round(torch_seconds, 4),
                   torch_images_per_second=round(batch / torch_seconds, 2))
 
-    if compare:
+    if compare and not backward:
         from render.mitsuba_reference.scene import PlanarSampleRenderer
 
         ours = images[:compare].permute(0, 2, 3, 1).cpu().numpy()
