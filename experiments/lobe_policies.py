@@ -38,6 +38,8 @@ measures policies that combine them without running a network again:
                             photo's luminance, and scaled back to its mean (b = 0 is
                             photo-normals<k>; the truth's albedo and normals together relight
                             at 0.76x, each alone at 0.88x and 0.91x)
+    unknown+normal-gain<g>  the default estimate with plastic's normals' slopes (x/z, y/z)
+                            times g: the relief it reads, g times as deep
     unknown+albedo<w>       the default estimate with w times plastic's albedo plus 1 - w
                             times the naive one (the photo scaled to mean 0.5)
     plastic+true-lobe       the truth's lobe in plastic's estimate (the ceiling of a reader)
@@ -99,6 +101,7 @@ SPREAD_THRESHOLDS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.6)
 PHOTO_NORMAL_STRENGTHS = (-2.0, -1.0, -0.5, 0.5, 1.0, 2.0)
 ALBEDO_WEIGHTS = (0.0, 0.5, 0.75, 1.25, 1.5)
 RELIEF_STRENGTHS = (0.5, 1.0, 2.0)
+NORMAL_GAINS = (1.5, 2.0, 4.0, 8.0)
 SHADING_SHARES = (0.25, 0.5, 1.0)
 CONSTANT_LOBES = tuple((specular, alpha) for specular in (0.04, 0.06, 0.08, 0.12, 0.16)
                        for alpha in (0.15, 0.25, 0.4))
@@ -120,6 +123,12 @@ def photo_normals(photo: torch.Tensor, strength: float) -> torch.Tensor:
     d_down = (torch.roll(height, -1, 0) - torch.roll(height, 1, 0)) / 2.0
     normal = torch.stack([-d_right, d_down, torch.ones_like(height)])
     return (normal / normal.norm(dim=0, keepdim=True))[None]
+
+
+def deeper_relief(normal: torch.Tensor, gain: float) -> torch.Tensor:
+    """(1, 3, S, S) unit normals with the slopes (x/z, y/z) of ``normal`` times ``gain``."""
+    steeper = torch.cat([normal[:, :2] * gain, normal[:, 2:]], 1)
+    return steeper / steeper.norm(dim=1, keepdim=True)
 
 
 def without_shading(albedo: torch.Tensor, photo: torch.Tensor, share: float) -> torch.Tensor:
@@ -211,6 +220,9 @@ def policies(row: dict) -> dict[str, dict]:
             chosen[f"unknown+photo-relief{strength:g},{share:g}"] = unknown | {
                 "normal": photo_normals(row["photo"], strength),
                 "albedo": without_shading(unknown["albedo"], row["photo"], share)}
+    for gain in NORMAL_GAINS:
+        chosen[f"unknown+normal-gain{gain:g}"] = unknown | {
+            "normal": deeper_relief(unknown["normal"], gain)}
     for weight in ALBEDO_WEIGHTS:
         chosen[f"unknown+albedo{weight:g}"] = unknown | {
             "albedo": weight * unknown["albedo"] + (1.0 - weight) * row["naive"]["albedo"]}
@@ -305,6 +317,8 @@ def main(out, samples, relights, only):
                 "unknown+photo-relief<k>,<b>": ["unknown"] + [
                     f"unknown+photo-relief{k:g},{b:g}" for k in RELIEF_STRENGTHS
                     for b in SHADING_SHARES],
+                "unknown+normal-gain<g>": ["unknown"] + [
+                    f"unknown+normal-gain{g:g}" for g in NORMAL_GAINS],
                 "unknown+albedo<w>": ["unknown"] + [f"unknown+albedo{w:g}"
                                                    for w in ALBEDO_WEIGHTS]}
     families = {family: members for family, members in families.items()
