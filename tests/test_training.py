@@ -4,9 +4,12 @@ self-augmented minibatch."""
 import dataclasses
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
+import tempfile
+import time
 
 import numpy as np
 import pytest
@@ -311,13 +314,25 @@ def test_training_and_estimation_do_not_import_mitsuba():
     assert result.returncode == 0, result.stderr
 
 
-def torchrun(dataset, out, processes, *options):
+def torchrun_command(dataset, out, processes, *options):
     """sa-train under ``torchrun --nproc_per_node processes`` (gloo on the CPU)."""
-    command = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node",
-               str(processes), "-m", "train.cli.sa_train", "--dataset", str(dataset), "--out",
-               str(out), "--probes", str(BUNDLED_PROBES), *TINY_NETWORK, "--batch-size", "8",
-               *options]
-    return subprocess.run(command, cwd=REPO, capture_output=True, text=True)
+    return [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", str(processes),
+            "-m", "train.cli.sa_train", "--dataset", str(dataset), "--out", str(out),
+            "--probes", str(BUNDLED_PROBES), *TINY_NETWORK, "--batch-size", "8", *options]
+
+
+def torchrun_stopped(command, checkpoints):
+    """Run ``command`` and send torchrun SIGTERM once ``checkpoints`` holds a checkpoint;
+    returns (exit status, stderr, whether the run was still going when signalled)."""
+    with tempfile.TemporaryFile("w+") as stderr:  # a file: a full pipe would block the run
+        process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=stderr)
+        while process.poll() is None and not checkpoint_files(checkpoints):
+            time.sleep(0.005)
+        signalled = process.poll() is None
+        process.send_signal(signal.SIGTERM)
+        process.wait()
+        stderr.seek(0)
+        return process.returncode, stderr.read(), signalled
 
 
 @pytest.mark.slow  # end to end under torchrun: make test-slow
@@ -326,12 +341,20 @@ def test_two_processes_follow_the_loss_curve_of_one_and_resume_in_one(dataset, t
     one process: every step's loss within 1%. The gap comes from sums taken in another order,
     which training amplifies (here under 0.2% after 12 steps; with batch norm over each shard
     instead of the global minibatch it is 5 to 46% from step 3 on). Then the 2-process run,
-    cut back to its step-8 checkpoint, resumes in one process and follows the same curve."""
+    cut back to its step-8 checkpoint, resumes in one process and follows the same curve.
+    The 2-process run is first stopped by a SIGTERM to torchrun after its first checkpoint:
+    both processes stop at one step, which is checkpointed, and the same command continues."""
     options = ["--unlabeled", str(dataset), "--labeled-epochs", "1", "--self-augmented-epochs",
                "1", "--log-every", "1", "--checkpoint-every", "2"]
     assert train(dataset, tmp_path / "one", *options).exit_code == 0
     two = tmp_path / "two"
-    result = torchrun(dataset, two, 2, *options)
+    command = torchrun_command(dataset, two, 2, *options)
+    status, stderr, signalled = torchrun_stopped(command, two / "checkpoints")
+    assert signalled and status != 0, stderr[-3000:]
+    stops = re.findall(r"stopped by (SIGTERM|another process) at step (\d+):", stderr)
+    assert len(stops) == 2 and len({step for _, step in stops}) == 1, stderr[-3000:]
+    assert newest_step(two / "checkpoints") == int(stops[0][1]) < 12
+    result = subprocess.run(command, cwd=REPO, capture_output=True, text=True)
     assert result.returncode == 0, result.stderr[-3000:]
     assert "2 process(es)" in result.stderr
 
