@@ -25,7 +25,9 @@ Into WORK, each step kept where done, so that the same command continues a cut-o
                                   test, each network and the shipped file of its class on the
                                   same Mitsuba renders (release/, shipped/)
     card.md, release.json         the card's tables: each run's steps and minutes, the
-                                  validation per fold and choice, the test, the larger test
+                                  validation per fold and choice, the test, the larger test,
+                                  and whether the files pass the ship rule of
+                                  models/README.md (ship_rule_failures)
 
 Time: the runs share ``--train-minutes``. Each is given the share of the minutes left that its
 steps left are of the steps left of the runs whose turn in this call is not over (times
@@ -109,6 +111,15 @@ RECIPE = (
     Network("metal", SEEDS, 3200, ("--own-specular", "--relit-loss-weight", "300")),
 )
 """The networks of a release and how each is trained."""
+
+
+SHIPPED_RELIT = {"unknown": 0.984, "wood": 1.44, "plastic": 0.982, "metal": 8.74}
+"""The shipped files' relit RMSE over the naive baseline's on the real validation's 240 photos
+(models/README.md), per --class choice: a release's choice must not exceed it."""
+SHIPPED_UNKNOWN_ALBEDO = 0.971
+"""The shipped default estimate's albedo RMSE over the naive baseline's there."""
+WORST_SET_RELIT = 1.10
+"""No validation set's relit ratio under a release's default estimate may exceed this."""
 
 
 @dataclass(frozen=True)
@@ -342,6 +353,33 @@ def procedural_table(work: Path, size: Size, shared: Path, device: str) -> list[
     return rows
 
 
+def ship_rule_failures(validation: dict, procedural: list[dict]) -> list[str]:
+    """The ship rule of models/README.md, fixed before a release is measured: its files
+    replace the shipped ones if, on the real validation (``validation``: summarize's table),
+    its default estimate relights at or below SHIPPED_RELIT["unknown"] with its albedo at or
+    below SHIPPED_UNKNOWN_ALBEDO and no set above WORST_SET_RELIT, each --class choice relights
+    at or below the shipped one's, and on the larger test (``procedural``: procedural_table's
+    rows) no network is worse than the shipped file by more than its spread over sets. Returns
+    the checks that fail, in words (none: the files ship)."""
+    every = validation["folds"]["all"]
+    failures = [f"{choice} relights the validation at {every[choice]['relit_ratio']:.3f}x, "
+                f"above the shipped {bar:.3f}x"
+                for choice, bar in SHIPPED_RELIT.items() if every[choice]["relit_ratio"] > bar]
+    default = every["unknown"]
+    if default["albedo_ratio"] > SHIPPED_UNKNOWN_ALBEDO:
+        failures.append(f"the default's albedo is {default['albedo_ratio']:.3f}x, above the "
+                        f"shipped {SHIPPED_UNKNOWN_ALBEDO:.3f}x")
+    if default["worst_relit_ratio"] > WORST_SET_RELIT:
+        failures.append(f"the default relights {default['worst_set']} at "
+                        f"{default['worst_relit_ratio']:.3f}x, above {WORST_SET_RELIT:.2f}x")
+    failures += [f"{row['network']} on the larger test: {row['new_ratio']:.3f}x against the "
+                 f"shipped file's {row['base_ratio']:.3f}x, worse by more than its spread "
+                 f"({row['new_ratio_bootstrap_sd']:.3f})"
+                 for row in procedural
+                 if row["paired_difference"] > row["new_ratio_bootstrap_sd"]]
+    return failures
+
+
 def procedural_markdown(rows: list[dict]) -> str:
     """The procedural test's table in markdown."""
     lines = ["| network | photos | shipped file | release | release - shipped (se) | "
@@ -354,8 +392,9 @@ def procedural_markdown(rows: list[dict]) -> str:
 
 
 def write_card(work: Path, command: str, record: dict, tables: dict | None) -> None:
-    """card.md and release.json: the machine, the runs, and the validation, the test and the
-    larger test (``tables``; None while a run is unfinished)."""
+    """card.md and release.json: the machine, the runs, and the validation, the test, the
+    larger test and the ship rule's failed checks (``tables``; None while a run is
+    unfinished)."""
     lines = [f"Made by `{command}` on {machine()}.", "", "| run | steps | minutes |",
              "| --- | --- | --- |"]
     lines += [f"| {name} | {row['steps']} of {row['of_steps']} | {row['seconds'] / 60:.1f} |"
@@ -369,6 +408,10 @@ def write_card(work: Path, command: str, record: dict, tables: dict | None) -> N
     if tables:
         lines += ["", "**procedural larger test** (relit RMSE over the naive baseline's; "
                       "scripts/procedural_test.py)", "", procedural_markdown(tables["procedural"])]
+        failures = tables["ship_rule_failures"]
+        lines += ["", "**Ship rule** (models/README.md): " + (
+            "every check holds: these files replace the shipped ones." if not failures else
+            "these files do not replace the shipped ones:"), *[f"- {f}" for f in failures]]
     with atomic_path(work / "card.md") as tmp:
         tmp.write_text("\n".join(lines) + "\n")
     write_json(work / "release.json", {"command": command, "machine": machine(),
@@ -411,9 +454,13 @@ def main(out, size_name, train_minutes, device, parallel, shared):
         for network in RECIPE:
             export(work, network, size_name, command)
         finished = all(row["steps"] >= row["of_steps"] for row in record.values())
-        tables = {**{split: evaluate(work, split, size, shared, device)
-                     for split in ("validation", "test")},
-                  "procedural": procedural_table(work, size, shared, device)} if finished else None
+        tables = None
+        if finished:
+            tables = {split: evaluate(work, split, size, shared, device)
+                      for split in ("validation", "test")}
+            tables["procedural"] = procedural_table(work, size, shared, device)
+            tables["ship_rule_failures"] = ship_rule_failures(tables["validation"],
+                                                              tables["procedural"])
         write_card(work, command, record, tables)
     except InputError as error:
         raise click.ClickException(str(error)) from None

@@ -17,7 +17,9 @@ from procedural_test import groups  # noqa: E402
 from real_validation import FOLDS, TEST_PROBES, VALIDATION_PROBES  # noqa: E402
 from release import (  # noqa: E402
     RECIPE,
+    SHIPPED_RELIT,
     SIZES,
+    ship_rule_failures,
     time_share,
     total_steps,
     training_probes,
@@ -77,6 +79,31 @@ def test_an_unfinished_release_has_the_runs_table_and_no_figures(tmp_path):
     assert summary["runs"] == record and "validation" not in summary
 
 
+def test_the_ship_rule_names_each_check_that_fails():
+    def validation(**default):
+        every = {choice: {"relit_ratio": bar, "albedo_ratio": 0.9, "worst_set": "a",
+                          "worst_relit_ratio": 1.0} for choice, bar in SHIPPED_RELIT.items()}
+        every["unknown"] |= default
+        return {"folds": {"all": every}}
+
+    def procedural(difference, spread):
+        return [{"network": "wood", "base_ratio": 0.6, "new_ratio": 0.6 + difference,
+                 "paired_difference": difference, "new_ratio_bootstrap_sd": spread}]
+
+    assert ship_rule_failures(validation(), procedural(0.02, 0.03)) == []  # at the bars: ships
+    failed = ship_rule_failures(validation(relit_ratio=0.99, albedo_ratio=0.98,
+                                           worst_set="godot_marble", worst_relit_ratio=1.2),
+                                procedural(0.04, 0.03))
+    assert len(failed) == 4
+    assert failed[0].startswith("unknown relights the validation at 0.990x")
+    assert "albedo is 0.980x" in failed[1] and "godot_marble at 1.200x" in failed[2]
+    assert failed[3].startswith("wood on the larger test: 0.640x")
+    worse_metal = validation()
+    worse_metal["folds"]["all"]["metal"]["relit_ratio"] = 9.0
+    assert ship_rule_failures(worse_metal, []) == [
+        "metal relights the validation at 9.000x, above the shipped 8.740x"]
+
+
 def release(work, minutes):
     return subprocess.run([sys.executable, "scripts/release.py", "--out", str(work),
                            "--size", "toy", "--train-minutes", str(minutes)],
@@ -119,6 +146,9 @@ def test_the_release_at_toy_size(tmp_path):
         sets = toy.base + toy.pairs * (row["network"] == "wood")  # probes
         assert row["photos"] == 2 * sets
         assert f"| {row['network']} | {row['photos']} | {row['base_ratio']:.3f} |" in card
+    failures = json.loads((work / "release.json").read_text())["ship_rule_failures"]
+    assert "**Ship rule** (models/README.md): " in card
+    assert all(f"- {failure}" in card for failure in failures)
 
     files = sorted((work / "files").rglob("*.safetensors"))
     before = {path: path.read_bytes() for path in files}
