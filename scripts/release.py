@@ -36,7 +36,9 @@ its step, checkpointed) when that is spent; its newest checkpoint is then export
 says how many of its steps it reached. A later call continues the runs towards their steps;
 the validation, the test and the larger test are measured once every run has all its steps (an
 unfinished release's card has the runs' table only; on a 2-core CPU the real sets take 15 to 26
-minutes, the larger test is not yet timed there).
+minutes, the larger test is not yet timed there). SIGTERM or Ctrl-C while the runs train stops
+the call the same way: the sa-train running writes the checkpoint of its step, no other run
+starts, the card is written, and the call exits with status 128 + the signal's number.
 ``--size toy`` is the
 same pipeline on a few small sets, a small network and a few photos (minutes on a CPU; the
 tests run it); ``full`` is the release on a GPU, ``cpu`` the same at an eighth of the steps
@@ -54,6 +56,7 @@ import math
 import os
 import platform
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -70,6 +73,7 @@ from render.common.resume import file_digest
 from train.estimation.network_choice import CLASSES, class_model_file, network_choice
 from train.networks.checkpoints import checkpoint_files, checkpoint_step, newest_step
 from train.networks.model_files import FORMAT, load_network, model_metadata, save_model
+from train.training.interruption import StopRequest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from compare_evaluations import compare, per_photo  # noqa: E402
@@ -216,14 +220,20 @@ def run_folder(work: Path, network: Network) -> Path:
 
 
 def train_runs(work: Path, size: Size, device: str, minutes: float,
-               parallel: int) -> dict[str, dict]:
-    """Train (or continue) every network's run within ``minutes``; returns {network: steps,
-    seconds}."""
+               parallel: int) -> tuple[dict[str, dict], int | None]:
+    """Train (or continue) every network's run within ``minutes``; returns ({network: steps,
+    seconds}, the signal that stopped the call or None).
+
+    SIGTERM or SIGINT to this process (or to a run's sa-train) stops the call: each sa-train
+    running writes the checkpoint of its step (train/training/interruption.py), no further run
+    starts, and the same command continues."""
     maps = {network.name: maps_folder(work, network) for network in RECIPE}
     deadline = time.monotonic() + 60.0 * minutes
     threads = str(max(1, (os.cpu_count() or 1) // max(1, parallel)))
     record = {}
     waiting = {network.name for network in RECIPE}  # runs whose turn in this call is not over
+    stop = StopRequest()  # taken while the runs train
+    stopped_by = []  # the signal that stopped a run's sa-train, once one has
 
     def steps_left(network):
         reached = newest_step(run_folder(work, network) / "checkpoints")
@@ -239,27 +249,32 @@ def train_runs(work: Path, size: Size, device: str, minutes: float,
         before = float(timing.read_text()) if timing.is_file() else 0.0
 
         def record_seconds() -> float:
-            # Written every minute, so that a call killed by a signal keeps its time too.
+            # Written every minute, so that a call killed by SIGKILL keeps its time too.
             seconds = before + time.monotonic() - start
             with atomic_path(timing) as tmp:
                 tmp.write_text(f"{seconds:.1f}")
             return seconds
 
-        if steps_left(network) and allowance > 0:
+        if steps_left(network) and allowance > 0 and not stop.requested and not stopped_by:
             log = run.with_suffix(".log")
             command = train_command(work, network, maps[network.name], size, device)
             with open(log, "a") as output:
                 process = subprocess.Popen(command, stdout=output, stderr=subprocess.STDOUT,
                                            env=os.environ | {"OMP_NUM_THREADS": threads})
-                end = start + allowance
-                while process.poll() is None and time.monotonic() < end:
+                end, recorded = start + allowance, start
+                while (process.poll() is None and time.monotonic() < end
+                       and not stop.requested):
                     try:
-                        process.wait(timeout=min(60.0, max(0.0, end - time.monotonic())))
+                        process.wait(timeout=1.0)
                     except subprocess.TimeoutExpired:
-                        record_seconds()
+                        if time.monotonic() - recorded >= 60.0:
+                            recorded = time.monotonic()
+                            record_seconds()
                 if process.poll() is None:
                     process.terminate()  # sa-train writes the checkpoint of its step and
-                    process.wait()  # exits (train/training/interruption.py)
+                    process.wait()  # exits (a second signal, as after Ctrl-C, is ignored)
+                elif process.returncode - 128 in (signal.SIGTERM, signal.SIGINT):
+                    stopped_by.append(process.returncode - 128)  # signalled, checkpoint kept
                 elif process.returncode:
                     raise InputError(log, f"sa-train failed (exit status {process.returncode})")
         seconds = record_seconds()
@@ -269,9 +284,9 @@ def train_runs(work: Path, size: Size, device: str, minutes: float,
         waiting.discard(network.name)
         click.echo(json.dumps({"run": network.name, **record[network.name]}))
 
-    with ThreadPoolExecutor(max(1, parallel)) as pool:
+    with stop, ThreadPoolExecutor(max(1, parallel)) as pool:
         list(pool.map(train, RECIPE))
-    return record
+    return record, stop.signal_number or (stopped_by[0] if stopped_by else None)
 
 
 def time_share(seconds_left: float, parallel: int, steps_left: int,
@@ -450,7 +465,12 @@ def main(out, size_name, train_minutes, device, parallel, shared):
         work.mkdir(parents=True, exist_ok=True)
         training_probe_folder(work, shared)
         make_sets(work, size, parallel)
-        record = train_runs(work, size, device, train_minutes, parallel)
+        record, stopped_by = train_runs(work, size, device, train_minutes, parallel)
+        if stopped_by:
+            write_card(work, command, record, None)
+            click.echo(f"release.py: stopped by {signal.Signals(stopped_by).name}: each run "
+                       f"keeps the checkpoint of its step, the same command continues", err=True)
+            raise SystemExit(128 + stopped_by)
         for network in RECIPE:
             export(work, network, size_name, command)
         finished = all(row["steps"] >= row["of_steps"] for row in record.values())

@@ -2,12 +2,14 @@
 to end (slow: CI runs it after the quick suite, ``make test-slow``)."""
 
 import json
+import signal
 import subprocess
 import sys
 
 import pytest
 from safetensors import safe_open
 
+from render.common.errors import InputError
 from tests.conftest import REPO, SHARED_DATA, needs_shared
 
 sys.path.insert(0, str(REPO / "scripts"))
@@ -15,6 +17,7 @@ from procedural_test import HELD_OUT_PAIRS, SEED  # noqa: E402
 from procedural_test import SIZES as PROCEDURAL_SIZES  # noqa: E402
 from procedural_test import groups  # noqa: E402
 from real_validation import FOLDS, TEST_PROBES, VALIDATION_PROBES  # noqa: E402
+import release  # noqa: E402
 from release import (  # noqa: E402
     RECIPE,
     SHIPPED_RELIT,
@@ -69,6 +72,50 @@ def test_the_runs_share_the_time_by_their_steps_left_and_the_last_gets_the_rest(
     assert time_share(3600.0, 1, 0, 0) == 0.0
 
 
+# Stands in for sa-train: notes its start, then does what argv[2] says.
+FAKE_SA_TRAIN = """
+import os, signal, sys
+with open(sys.argv[1], "a") as starts:
+    starts.write("started\\n")
+if sys.argv[2] == "signal-the-release":  # as a user's kill would; then stop as sa-train does
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    os.kill(os.getppid(), signal.SIGTERM)
+    if signal.sigtimedwait({signal.SIGTERM}, 60) is None:
+        sys.exit(3)  # the release did not pass the signal on
+    sys.exit(128 + signal.SIGTERM)
+sys.exit(int(sys.argv[2]))
+"""
+
+
+def fake_training(monkeypatch, tmp_path, behaviour: str):
+    """train_runs at toy size with FAKE_SA_TRAIN for sa-train; returns the file of its starts."""
+    starts = tmp_path / "starts.txt"
+    monkeypatch.setattr(release, "maps_folder", lambda work, network: work)
+    monkeypatch.setattr(release, "train_command", lambda *arguments: [
+        sys.executable, "-c", FAKE_SA_TRAIN, str(starts), behaviour])
+    return starts
+
+
+def test_a_signal_to_the_release_stops_its_sa_train_and_starts_no_other_run(monkeypatch,
+                                                                             tmp_path):
+    starts = fake_training(monkeypatch, tmp_path, "signal-the-release")
+    record, stopped_by = release.train_runs(tmp_path, SIZES["toy"], "cpu", 10.0, 1)
+    assert stopped_by == signal.SIGTERM
+    assert starts.read_text() == "started\n"  # the first run only; it took its SIGTERM
+    assert list(record) == [network.name for network in RECIPE]
+    assert all(row["steps"] == 0 for row in record.values())
+
+
+def test_a_stopped_sa_train_stops_the_release_and_a_failed_one_fails_it(monkeypatch, tmp_path):
+    (tmp_path / "stopped").mkdir()
+    starts = fake_training(monkeypatch, tmp_path / "stopped", str(128 + signal.SIGINT))
+    _, stopped_by = release.train_runs(tmp_path / "stopped", SIZES["toy"], "cpu", 10.0, 1)
+    assert stopped_by == signal.SIGINT and starts.read_text() == "started\n"
+    fake_training(monkeypatch, tmp_path, "1")
+    with pytest.raises(InputError, match=r"runs/wood\.log: sa-train failed \(exit status 1\)"):
+        release.train_runs(tmp_path, SIZES["toy"], "cpu", 10.0, 1)
+
+
 def test_an_unfinished_release_has_the_runs_table_and_no_figures(tmp_path):
     record = {"wood": {"steps": 1100, "of_steps": 4600, "seconds": 5713.1}}
     write_card(tmp_path, "scripts/release.py --size full --device cpu", record, None)
@@ -104,7 +151,7 @@ def test_the_ship_rule_names_each_check_that_fails():
         "metal relights the validation at 9.000x, above the shipped 8.740x"]
 
 
-def release(work, minutes):
+def run_release(work, minutes):
     return subprocess.run([sys.executable, "scripts/release.py", "--out", str(work),
                            "--size", "toy", "--train-minutes", str(minutes)],
                           cwd=REPO, capture_output=True, text=True)
@@ -114,11 +161,11 @@ def release(work, minutes):
 @needs_shared
 def test_the_release_at_toy_size(tmp_path):
     work = tmp_path / "release"
-    stopped = release(work, 0)  # no minutes: no run trains, nothing to export
+    stopped = run_release(work, 0)  # no minutes: no run trains, nothing to export
     assert stopped.returncode == 1
     assert "no checkpoint to export" in stopped.stderr.splitlines()[-1]
 
-    done = release(work, 60)  # an upper bound: the runs end sooner
+    done = run_release(work, 60)  # an upper bound: the runs end sooner
     assert done.returncode == 0, done.stderr[-2000:]
     card = (work / "card.md").read_text()
     for network in RECIPE:
@@ -152,6 +199,6 @@ def test_the_release_at_toy_size(tmp_path):
 
     files = sorted((work / "files").rglob("*.safetensors"))
     before = {path: path.read_bytes() for path in files}
-    again = release(work, 60)  # all done: nothing is trained or exported again
+    again = run_release(work, 60)  # all done: nothing is trained or exported again
     assert again.returncode == 0, again.stderr[-2000:]
     assert {path: path.read_bytes() for path in files} == before
