@@ -1,6 +1,10 @@
 """Shared fixtures: Mitsuba, small synthetic inputs written to temporary folders, shared data."""
 
 import json
+import subprocess
+import tempfile
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +34,23 @@ def renderer(mi):
     from render.mitsuba_reference.scene import PlanarSampleRenderer
 
     return PlanarSampleRenderer("llvm_ad_rgb", spp=256)
+
+
+def signal_once(command: list[str], ready: Callable[[], bool], signal_number: int,
+                delay: float = 0.0) -> tuple[int, str, bool]:
+    """Run ``command`` from the repository root and send it ``signal_number`` once ``ready()``
+    holds, ``delay`` seconds later; returns its exit status, its stderr and whether it was still
+    running when signalled."""
+    with tempfile.TemporaryFile("w+") as stderr:  # a file: a full pipe would block the run
+        process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=stderr)
+        while process.poll() is None and not ready():
+            time.sleep(0.005)
+        time.sleep(delay)
+        signalled = process.poll() is None
+        process.send_signal(signal_number)
+        process.wait()
+        stderr.seek(0)
+        return process.returncode, stderr.read(), signalled
 
 
 def write_png(path, pixels):

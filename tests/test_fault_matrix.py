@@ -19,8 +19,6 @@ import resource
 import signal
 import subprocess
 import sys
-import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +27,7 @@ from PIL import Image
 
 from render.common.images import read_image
 
-from tests.conftest import REPO
+from tests.conftest import REPO, signal_once
 from tests.reliability_cases import FAULT_COMMANDS as COMMANDS
 from tests.reliability_cases import FILE_SIZE_LIMITS, KILLS, STOPS
 from train.networks.checkpoints import checkpoint_files, load_checkpoint
@@ -119,17 +117,10 @@ def signal_at_random_moment(command, out, rng, files_at_end, signal_number=signa
     its exit status and stderr, or None if it finished before the signal."""
     module, argv = COMMANDS[command]
     target, extra = int(rng.integers(files_at_end)), float(rng.uniform(0.0, 0.5))
-    with tempfile.TemporaryFile("w+") as stderr:  # a file: a full pipe would block the run
-        process = subprocess.Popen([sys.executable, "-m", module, *argv(out)], cwd=REPO,
-                                   stdout=subprocess.DEVNULL, stderr=stderr)
-        while process.poll() is None and (not out.exists() or len(files(out)) < target):
-            time.sleep(0.005)
-        time.sleep(extra)
-        signalled = process.poll() is None
-        process.send_signal(signal_number)
-        process.wait()
-        stderr.seek(0)
-        return (process.returncode, stderr.read()) if signalled else None
+    status, stderr, signalled = signal_once(
+        [sys.executable, "-m", module, *argv(out)],
+        lambda: out.exists() and len(files(out)) >= target, signal_number, extra)
+    return (status, stderr) if signalled else None
 
 
 @pytest.fixture(scope="module")

@@ -8,8 +8,6 @@ import re
 import signal
 import subprocess
 import sys
-import tempfile
-import time
 
 import numpy as np
 import pytest
@@ -22,7 +20,7 @@ from render.common.probes import find_probes, load_probe, plane_irradiance, tilt
 from render.materials.reduced_svbrdf import find_materials, load_material, resample
 from render.mitsuba_reference.scene import PlanarSampleRenderer
 from render.torch_renderer.renderer import ProbeBank, render
-from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO, write_png
+from tests.conftest import BUNDLED_MATERIALS, BUNDLED_PROBES, REPO, signal_once, write_png
 from train.cli.sa_estimate import main as sa_estimate
 from train.cli.sa_evaluate import main as sa_evaluate
 from train.cli.sa_train import main as sa_train
@@ -321,20 +319,6 @@ def torchrun_command(dataset, out, processes, *options):
             "--probes", str(BUNDLED_PROBES), *TINY_NETWORK, "--batch-size", "8", *options]
 
 
-def torchrun_stopped(command, checkpoints):
-    """Run ``command`` and send torchrun SIGTERM once ``checkpoints`` holds a checkpoint;
-    returns (exit status, stderr, whether the run was still going when signalled)."""
-    with tempfile.TemporaryFile("w+") as stderr:  # a file: a full pipe would block the run
-        process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=stderr)
-        while process.poll() is None and not checkpoint_files(checkpoints):
-            time.sleep(0.005)
-        signalled = process.poll() is None
-        process.send_signal(signal.SIGTERM)
-        process.wait()
-        stderr.seek(0)
-        return process.returncode, stderr.read(), signalled
-
-
 @pytest.mark.slow  # end to end under torchrun: make test-slow
 def test_two_processes_follow_the_loss_curve_of_one_and_resume_in_one(dataset, tmp_path):
     """Data-parallel training on 2 processes (2 shards of 4 per global minibatch of 8) against
@@ -349,7 +333,8 @@ def test_two_processes_follow_the_loss_curve_of_one_and_resume_in_one(dataset, t
     assert train(dataset, tmp_path / "one", *options).exit_code == 0
     two = tmp_path / "two"
     command = torchrun_command(dataset, two, 2, *options)
-    status, stderr, signalled = torchrun_stopped(command, two / "checkpoints")
+    status, stderr, signalled = signal_once(  # SIGTERM to torchrun after the first checkpoint
+        command, lambda: bool(checkpoint_files(two / "checkpoints")), signal.SIGTERM)
     assert signalled and status != 0, stderr[-3000:]
     stops = re.findall(r"stopped by (SIGTERM|another process) at step (\d+):", stderr)
     assert len(stops) == 2 and len({step for _, step in stops}) == 1, stderr[-3000:]
