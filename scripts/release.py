@@ -73,7 +73,7 @@ from render.common.resume import file_digest
 from train.estimation.network_choice import CLASSES, class_model_file, network_choice
 from train.networks.checkpoints import checkpoint_files, checkpoint_step, newest_step
 from train.networks.model_files import FORMAT, load_network, model_metadata, save_model
-from train.training.interruption import StopRequest
+from train.training.interruption import SIGNALS, StopRequest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from compare_evaluations import compare, per_photo  # noqa: E402
@@ -273,7 +273,7 @@ def train_runs(work: Path, size: Size, device: str, minutes: float,
                 if process.poll() is None:
                     process.terminate()  # sa-train writes the checkpoint of its step and
                     process.wait()  # exits (a second signal, as after Ctrl-C, is ignored)
-                elif process.returncode - 128 in (signal.SIGTERM, signal.SIGINT):
+                elif process.returncode - 128 in SIGNALS:
                     stopped_by.append(process.returncode - 128)  # signalled, checkpoint kept
                 elif process.returncode:
                     raise InputError(log, f"sa-train failed (exit status {process.returncode})")

@@ -107,13 +107,14 @@ def test_a_signal_to_the_release_stops_its_sa_train_and_starts_no_other_run(monk
 
 
 def test_a_stopped_sa_train_stops_the_release_and_a_failed_one_fails_it(monkeypatch, tmp_path):
-    (tmp_path / "stopped").mkdir()
-    starts = fake_training(monkeypatch, tmp_path / "stopped", str(128 + signal.SIGINT))
-    _, stopped_by = release.train_runs(tmp_path / "stopped", SIZES["toy"], "cpu", 10.0, 1)
+    stopped, failed = tmp_path / "stopped", tmp_path / "failed"
+    stopped.mkdir(), failed.mkdir()
+    starts = fake_training(monkeypatch, stopped, str(128 + signal.SIGINT))
+    _, stopped_by = release.train_runs(stopped, SIZES["toy"], "cpu", 10.0, 1)
     assert stopped_by == signal.SIGINT and starts.read_text() == "started\n"
-    fake_training(monkeypatch, tmp_path, "1")
+    fake_training(monkeypatch, failed, "1")
     with pytest.raises(InputError, match=r"runs/wood\.log: sa-train failed \(exit status 1\)"):
-        release.train_runs(tmp_path, SIZES["toy"], "cpu", 10.0, 1)
+        release.train_runs(failed, SIZES["toy"], "cpu", 10.0, 1)
 
 
 def test_an_unfinished_release_has_the_runs_table_and_no_figures(tmp_path):
