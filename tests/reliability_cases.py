@@ -11,7 +11,9 @@ every path a case makes bad is one of its attributes, and the test checks that t
 names it.
 """
 
+import atexit
 import functools
+import shutil
 import struct
 import tempfile
 import zlib
@@ -369,8 +371,10 @@ FAULT_COMMANDS = {
 @functools.cache
 def fault_photos():
     """Four photos for the sa-estimate batch of the fault matrix: 96 px crops of the bundled
-    brick photo, written once per process into a temporary folder."""
+    brick photo, written once per process into a temporary folder that is removed when the
+    process exits (the same paths for every run of a process, whose results name them)."""
     folder = Path(tempfile.mkdtemp(prefix="fault-photos-"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
     with Image.open(BUNDLED_PHOTO) as photo:
         photo = photo.convert("RGB")
     paths = []

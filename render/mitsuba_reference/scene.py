@@ -86,7 +86,6 @@ class PlanarSampleRenderer:
         self.spp = spp
         self.sampler = sampler
         self.lane_budget = LANE_BUDGET["cuda" if variant.startswith("cuda") else "llvm"]
-        self._workdir = tempfile.TemporaryDirectory(prefix="sa-svbrdf-scene-")
         self._scenes = {}
 
     def _scene(self, svbrdf, probe, rotation_deg, view, spp, rows_per_strip):
@@ -98,20 +97,24 @@ class PlanarSampleRenderer:
         emitter_only = svbrdf.roughness >= EMITTER_ONLY_ROUGHNESS
         key = (height, width, probe.radiance.shape, spp, rows_per_strip, emitter_only)
         if key not in self._scenes:
-            files = {}
-            for name, pixels in (("albedo", svbrdf.albedo), ("normal", svbrdf.normal),
-                                 ("probe", probe.radiance)):
-                files[name] = str(Path(self._workdir.name) / f"{len(self._scenes)}-{name}.exr")
-                write_exr(files[name], pixels)
-            scene = self.mi.load_file(
-                str(SCENE_FILE), spp=str(spp), sampler=self.sampler, width=str(width),
-                height=str(height), crop_x="0", crop_y="0", crop_width=str(width),
-                crop_height=str(rows_per_strip), aspect=repr(height / width),
-                camera=matrix_text(camera_to_world(view)),
-                probe_to_world=matrix_text(probe_to_world(rotation_deg)),
-                specular=" ".join(repr(float(v)) for v in svbrdf.specular),
-                alpha=repr(float(svbrdf.roughness)), emitter_samples="2" if emitter_only else "1",
-                bsdf_samples="0" if emitter_only else "1", **files)
+            # The scene file names its textures and probe by path; Mitsuba reads them while
+            # it loads the scene, so the files live only that long.
+            with tempfile.TemporaryDirectory(prefix="sa-svbrdf-scene-") as folder:
+                files = {}
+                for name, pixels in (("albedo", svbrdf.albedo), ("normal", svbrdf.normal),
+                                     ("probe", probe.radiance)):
+                    files[name] = str(Path(folder) / f"{name}.exr")
+                    write_exr(files[name], pixels)
+                scene = self.mi.load_file(
+                    str(SCENE_FILE), spp=str(spp), sampler=self.sampler, width=str(width),
+                    height=str(height), crop_x="0", crop_y="0", crop_width=str(width),
+                    crop_height=str(rows_per_strip), aspect=repr(height / width),
+                    camera=matrix_text(camera_to_world(view)),
+                    probe_to_world=matrix_text(probe_to_world(rotation_deg)),
+                    specular=" ".join(repr(float(v)) for v in svbrdf.specular),
+                    alpha=repr(float(svbrdf.roughness)),
+                    emitter_samples="2" if emitter_only else "1",
+                    bsdf_samples="0" if emitter_only else "1", **files)
             self._scenes[key] = (scene, self.mi.traverse(scene))
         return self._scenes[key]
 
