@@ -41,9 +41,6 @@ NETWORKS = {"paper": NetworkConfig(), "compact": COMPACT_CONFIG, "small": SMALL_
 @click.option("--mix-specular/--own-specular", default=False, show_default=True,
               help="With --labeled-maps: give each sample the specular albedo and roughness "
                    "of a random material of the folder (not only its own texture's).")
-@click.option("--relief-scale", default=1.0, show_default=True,
-              help="With --labeled-maps: scale each crop's relief (every normal's slopes) by a "
-                   "factor drawn log-uniformly from 1 to this.")
 @click.option("--epoch-samples", default=3200, show_default=True,
               help="With --labeled-maps: labeled samples per epoch.")
 @click.option("--init-from", type=click.Path(), default=None,

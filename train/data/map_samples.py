@@ -57,7 +57,7 @@ class MapSampler:
     def __init__(self, folder: str | Path, probes: ProbeBank,
                  probe_choices: Sequence[int] | np.ndarray, size: int, render_size: int,
                  max_view_angle: float = 0.0, crop_scales: Sequence[int] = (1,),
-                 mix_specular: bool = False, relief_scale: float = 1.0):
+                 mix_specular: bool = False):
         if not crop_scales or any(int(k) != k or k < 1 for k in crop_scales):
             raise ValueError(f"crop scales {list(crop_scales)} are not whole numbers >= 1")
         if render_size < size * max(crop_scales):
@@ -68,9 +68,6 @@ class MapSampler:
         self.size, self.max_view_angle = size, max_view_angle
         self.crop_scales = [int(k) for k in crop_scales]
         self.mix_specular = mix_specular
-        if relief_scale < 1.0:
-            raise ValueError(f"relief scale {relief_scale} is below 1")
-        self.relief_scale = relief_scale
         self.materials = [_half_precision(resample(load_material(path), render_size))
                           for path in find_materials(folder)]
 
@@ -129,12 +126,9 @@ class MapSampler:
         left = int(rng.integers(0, width - window + 1))
         turns = int(rng.integers(4))
         specular_index = int(rng.integers(len(self.materials))) if self.mix_specular else index
-        relief = 1.0
-        if self.relief_scale > 1.0:
-            relief = float(np.exp(rng.uniform(0.0, np.log(self.relief_scale))))
-        return index, top, left, turns, scale, specular_index, relief
+        return index, top, left, turns, scale, specular_index
 
-    def _crop(self, index, top, left, turns, scale, specular_index, relief):
+    def _crop(self, index, top, left, turns, scale, specular_index):
         """Channel-first labels of one crop."""
         material, specular_material = self.materials[index], self.materials[specular_index]
         side = self.size * scale
@@ -143,7 +137,6 @@ class MapSampler:
         normal = material.normal[window].astype(np.float32)
         if scale > 1:
             albedo, normal = _box_down(albedo, scale), _box_down(normal, scale)
-        normal[..., :2] *= relief  # the height field's amplitude times relief: every slope
         normal /= np.linalg.norm(normal, axis=2, keepdims=True)
         _, albedo, normal = rotate_quarter_turns(albedo, albedo, normal, turns)
         albedo, log_specular = relative_labels(albedo, specular_material.specular)

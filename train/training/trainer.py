@@ -116,9 +116,6 @@ class TrainConfig:
     """With ``labeled_maps``: each sample takes the specular albedo and roughness of a random
     material of the folder, not only its own (train.data.map_samples: with one pair per material,
     the network learns which texture has which pair instead of reading the reflection)."""
-    relief_scale: float = 1.0
-    """With ``labeled_maps``: each crop's relief (its height field's amplitude, so every
-    normal's slopes) is scaled by a factor drawn log-uniformly from [1, relief_scale]."""
     epoch_samples: int = 3200
     """With ``labeled_maps``: labeled samples per epoch."""
     unlabeled: str | None = None
@@ -205,7 +202,7 @@ class Run:
         if cfg.labeled_maps is not None:
             self.maps = MapSampler(cfg.labeled_maps, self.probes, self.augmentation_probes,
                                    cfg.network.input_size, cfg.render_size, cfg.max_view_angle,
-                                   cfg.crop_scales, cfg.mix_specular, cfg.relief_scale)
+                                   cfg.crop_scales, cfg.mix_specular)
             steps_per_epoch = cfg.epoch_samples // cfg.batch_size
             self.log_specular_range = self.maps.log_specular_range()
         else:
