@@ -20,7 +20,7 @@ from real_validation import FOLDS, TEST_PROBES, VALIDATION_PROBES  # noqa: E402
 import release  # noqa: E402
 from release import (  # noqa: E402
     RECIPE,
-    SHIPPED_RELIT,
+    SHIPPED,
     SIZES,
     ship_rule_failures,
     time_share,
@@ -128,10 +128,15 @@ def test_an_unfinished_release_has_the_runs_table_and_no_figures(tmp_path):
 
 
 def test_the_ship_rule_names_each_check_that_fails():
+    shipped_relit = {"unknown": 0.984, "wood": 1.44, "plastic": 0.982, "metal": 8.74}
+
     def validation(**default):
-        every = {choice: {"relit_ratio": bar, "albedo_ratio": 0.9, "worst_set": "a",
-                          "worst_relit_ratio": 1.0} for choice, bar in SHIPPED_RELIT.items()}
-        every["unknown"] |= default
+        every = {}
+        for choice, bar in shipped_relit.items():  # the release at the shipped files' figures
+            for name in (choice, SHIPPED + choice):
+                every[name] = {"relit_ratio": bar, "albedo_ratio": 0.971, "worst_set": "a",
+                               "worst_relit_ratio": 1.0}
+        every["unknown"] = every["unknown"] | default
         return {"folds": {"all": every}}
 
     def procedural(difference, spread):
@@ -150,6 +155,8 @@ def test_the_ship_rule_names_each_check_that_fails():
     worse_metal["folds"]["all"]["metal"]["relit_ratio"] = 9.0
     assert ship_rule_failures(worse_metal, []) == [
         "metal relights the validation at 9.000x, above the shipped 8.740x"]
+    worse_metal["folds"]["all"][SHIPPED + "metal"]["relit_ratio"] = 9.5  # the bar is measured
+    assert ship_rule_failures(worse_metal, []) == []
 
 
 def run_release(work, minutes):
@@ -187,6 +194,10 @@ def test_the_release_at_toy_size(tmp_path):
         assert f"| test | {network.name} | {SIZES['toy'].photos} |" in card
     for fold in (*FOLDS, "test"):  # the estimate for a material of unknown kind
         assert f"| {fold} | unknown | {SIZES['toy'].photos} |" in card
+    for choice in ("unknown", *(network.name for network in RECIPE)):  # the rule's bars
+        for fold in FOLDS:
+            assert f"| {fold} | {SHIPPED}{choice} | {SIZES['toy'].photos} |" in card
+        assert f"| test | {SHIPPED}{choice} |" not in card  # the test chooses nothing
     procedural = json.loads((work / "release.json").read_text())["procedural"]
     assert [row["network"] for row in procedural] == [network.name for network in RECIPE]
     toy = PROCEDURAL_SIZES["toy"]
