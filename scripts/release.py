@@ -38,7 +38,8 @@ its step, checkpointed) when that is spent; its newest checkpoint is then export
 says how many of its steps it reached. A later call continues the runs towards their steps;
 the validation, the test and the larger test are measured once every run has all its steps (an
 unfinished release's card has the runs' table only; on a 2-core CPU the real sets take 15 to 26
-minutes, the larger test is not yet timed there). SIGTERM or Ctrl-C while the runs train stops
+minutes and the shipped files' validation 15 more, the larger test about an hour, half of it
+Mitsuba's renders). SIGTERM or Ctrl-C while the runs train stops
 the call the same way: the sa-train running writes the checkpoint of its step, no other run
 starts, the card is written, and the call exits with status 128 + the signal's number.
 ``--size toy`` is the
