@@ -35,19 +35,18 @@ Time: the runs share ``--train-minutes``. Each is given the share of the minutes
 steps left are of the steps left of the runs whose turn in this call is not over (times
 ``--parallel``, the runs trained at once; the last run gets what is left), and stopped (after
 its step, checkpointed) when that is spent; its newest checkpoint is then exported and card.md
-says how many of its steps it reached. A later call continues the runs towards their steps;
-the validation, the test and the larger test are measured once every run has all its steps (an
+says how many of its steps it reached. A later call continues the runs towards their steps; the
+validation, the test and the larger test are measured once every run has all its steps (an
 unfinished release's card has the runs' table only; on a 2-core CPU the real sets take 15 to 26
 minutes and the shipped files' validation 15 more, the larger test about an hour, half of it
-Mitsuba's renders). SIGTERM or Ctrl-C while the runs train stops
-the call the same way: the sa-train running writes the checkpoint of its step, no other run
-starts, the card is written, and the call exits with status 128 + the signal's number.
-``--size toy`` is the
-same pipeline on a few small sets, a small network and a few photos (minutes on a CPU; the
-tests run it); ``full`` is the release on a GPU, ``cpu`` the same at an eighth of the steps
-(SIZES). A work folder of size ``cpu`` continues into size ``full``: the same sets, and each
-run's steps so far are the first steps of its longer run (sa-train continues a run into more
-labeled epochs), so a CPU can grow a release over several calls.
+Mitsuba's renders). SIGTERM or Ctrl-C while the runs train stops the call the same way: the
+sa-train running writes the checkpoint of its step, no other run starts, the card is written,
+and the call exits with status 128 + the signal's number. ``--size toy`` is the same pipeline on
+a few small sets, a small network and a few photos (minutes on a CPU; the tests run it);
+``full`` is the release on a GPU, ``cpu`` the same at an eighth of the steps (SIZES). A work
+folder of size ``cpu`` continues into size ``full``: the same sets, and each run's steps so far
+are the first steps of its longer run (sa-train continues a run into more labeled epochs), so a
+CPU can grow a release over several calls.
 
 The released files are not copied into models/: the shipped files change when a release's
 validation says they should (models/README.md).
