@@ -469,9 +469,11 @@ def test_relit_partners_are_the_frozen_networks_estimates_or_the_truth(trained_r
     estimate, truth = run_with("estimate"), run_with("truth")
     batch = estimate.minibatch(0)
     prediction = estimate.net(batch["image"], parts=("homogeneous",))
-    assert truth._with_partners(prediction, batch) is prediction
+    given = truth._relit_estimate(prediction, batch)
+    assert given.keys() == prediction.keys()
+    assert all(given[name] is prediction[name] for name in given)
     estimate.net.eval()
-    partners = estimate._with_partners(prediction, batch)
+    partners = estimate._relit_estimate(prediction, batch)
     frozen = estimate.net(batch["image"], parts=("albedo", "normal"))
     assert torch.equal(partners["albedo"], frozen["albedo"])
     assert torch.equal(partners["normal"], frozen["normal"])
@@ -483,6 +485,38 @@ def test_relit_partners_are_the_frozen_networks_estimates_or_the_truth(trained_r
     assert abs(float(losses_[0]) - float(losses_[1])) > 1e-6
     with pytest.raises(ValueError, match="relit_partners 'label'"):
         run_with("label")
+
+
+def test_the_relit_loss_does_not_train_the_normal_network(trained_run, dataset, tmp_path):
+    """Every network trained with the relit loss: the normal network's gradient is its own
+    loss's alone, the albedo network's is not; a run training the normal network alone with
+    the relit loss is refused."""
+    def gradients(run, with_relit):
+        run.net.zero_grad()
+        batch = run.minibatch(0)
+        prediction = run.net(batch["image"])
+        terms = losses(prediction, batch)
+        total = terms["total"]
+        if with_relit:
+            total = total + 1000.0 * run._relit_loss(0, run._relit_estimate(prediction, batch),
+                                                     batch)
+        total.backward()
+        return {part: torch.cat([weight.grad.flatten()
+                                 for weight in getattr(run.net, part).parameters()])
+                for part in ("albedo", "normal")}
+
+    run = Run(TrainConfig(dataset=str(dataset), out=str(tmp_path / "run"),
+                          probes=str(BUNDLED_PROBES), init_from=str(trained_run),
+                          network=load_network(trained_run).config, batch_size=4,
+                          relit_loss_weight=1000.0, relit_loss_size=16))
+    run.net.eval()  # the same batch norm statistics in every pass
+    own, with_relit = gradients(run, False), gradients(run, True)
+    assert torch.equal(own["normal"], with_relit["normal"])
+    assert not torch.allclose(own["albedo"], with_relit["albedo"], rtol=0.01, atol=0.0)
+    with pytest.raises(ValueError, match="neither is trained"):
+        Run(TrainConfig(dataset=str(dataset), out=str(tmp_path / "wrong"),
+                        probes=str(BUNDLED_PROBES), network=load_network(trained_run).config,
+                        train_networks=("normal",), relit_loss_weight=1.0))
 
 
 def test_a_mean_pooled_homogeneous_network_starts_fresh_beside_loaded_map_networks(

@@ -65,6 +65,11 @@ log = logging.getLogger(__name__)
 RELIT_LOSS_STREAM = 1
 """Third seed word of the random stream of step ``index``'s relit-loss lightings:
 (seed, index, RELIT_LOSS_STREAM)."""
+RELIT_NETWORKS = ("homogeneous", "albedo")
+"""The networks the relit loss trains. The normal network learns from its own loss alone: under
+a relit loss weighted as the specular lobe needs (300), it learned normals that relight, not
+the relief (tilted nearly to grazing on metal;
+docs/experiments/2026-12-06-relit-loss-networks.md)."""
 RELIT_PARTNERS = ("truth", "estimate")
 """What the relit loss renders for untrained networks' labels (TrainConfig.relit_partners)."""
 LABELED_COLORS_STREAM = 2 ** 32 - 1
@@ -223,6 +228,9 @@ class Run:
         if unknown or not cfg.train_networks:
             raise ValueError(f"train_networks {sorted(cfg.train_networks)}: name some of "
                              f"{', '.join(PARTS)}")
+        if cfg.relit_loss_weight > 0 and not set(cfg.train_networks) & set(RELIT_NETWORKS):
+            raise ValueError(f"the relit loss trains only the {' and '.join(RELIT_NETWORKS)} "
+                             f"networks, and neither is trained")
         torch.manual_seed(cfg.seed)
         self.net = SVBRDFNet(cfg.network).to(self.device)
         if cfg.init_from is not None:
@@ -389,7 +397,7 @@ class Run:
         prediction = self.model(batch["image"], parts=self.cfg.train_networks)
         terms = losses(prediction, batch, self.cfg.albedo_loss)
         if self.cfg.relit_loss_weight > 0:
-            terms["relit"] = self._relit_loss(index, self._with_partners(prediction, batch),
+            terms["relit"] = self._relit_loss(index, self._relit_estimate(prediction, batch),
                                               batch)
             terms["total"] = terms["total"] + self.cfg.relit_loss_weight * terms["relit"]
         self.optimizer.zero_grad(set_to_none=True)
@@ -399,15 +407,19 @@ class Run:
         self.step = index + 1
         return self.place.mean({name: value.detach().item() for name, value in terms.items()})
 
-    def _with_partners(self, prediction, batch):
-        """``prediction`` with the frozen networks' estimates added when the relit loss takes
-        them as the partners (TrainConfig.relit_partners); computed without gradient, their
-        batch norm in eval mode."""
+    def _relit_estimate(self, prediction, batch):
+        """What the relit loss renders as the estimate: ``prediction``, the labels of the
+        networks outside RELIT_NETWORKS detached, and the frozen networks' estimates added
+        when the relit loss takes them as the partners (TrainConfig.relit_partners; computed
+        without gradient, their batch norm in eval mode)."""
+        estimate = {label: value if part in RELIT_NETWORKS else value.detach()
+                    for part, labels in PARTS.items() for label in labels
+                    if (value := prediction.get(label)) is not None}
         if self.cfg.relit_partners == "truth" or not self.frozen_parts:
-            return prediction
+            return estimate
         with torch.no_grad():
             partners = self.model(batch["image"], parts=self.frozen_parts)
-        return partners | prediction
+        return partners | estimate
 
     def _relit_loss(self, index, prediction, batch):
         """The relit loss of step ``index``, under lightings drawn for the global minibatch
