@@ -43,6 +43,20 @@ measures policies that combine them without running a network again:
     unknown+albedo<w>       the default estimate with w times plastic's albedo plus 1 - w
                             times the naive one (the photo scaled to mean 0.5)
     plastic+true-lobe       the truth's lobe in plastic's estimate (the ceiling of a reader)
+    unknown+flat            the default estimate with flat normals
+    unknown+share=<c>       no network: the albedo the photo-affine albedo network would give
+                            with a constant reflection share c (photo_affine_albedo), flat
+                            normals, the naive lobe
+    unknown+share-specular<k>
+                            the default estimate with the relative specular albedo the share
+                            s that plastic's photo-affine network reads implies, k s / (2 (1 -
+                            s)) on every channel (under uniform light a photo's mean is
+                            mean(albedo) + specular, so a share s of it is specular when the
+                            relative specular is s / (2 (1 - s))), Ward alpha 0.25
+
+With the share policies measured, OUT/share.png plots the share plastic's network reads of each
+photo against the truth's relative specular albedo, and each set's relit ratio under the default
+and under the best constant share.
 
 A policy's parameter is chosen the way every choice is: on the validation, and its cross-
 validated figure chooses it on three folds and measures it on the fourth. Writes OUT/cache/
@@ -62,6 +76,7 @@ from pathlib import Path
 import click
 import numpy as np
 import torch
+from matplotlib.figure import Figure
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 from real_validation import (  # noqa: E402
@@ -93,6 +108,7 @@ from train.evaluation.estimate_evaluation import (  # noqa: E402
     relit_under,
     test_samples,
 )
+from train.networks.svbrdf_net import photo_affine_albedo  # noqa: E402
 
 NETWORKS = ("plastic", "metal")
 BLEND_WEIGHTS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -103,6 +119,8 @@ ALBEDO_WEIGHTS = (0.0, 0.5, 0.75, 1.25, 1.5)
 RELIEF_STRENGTHS = (0.5, 1.0, 2.0)
 NORMAL_GAINS = (1.5, 2.0, 4.0, 8.0)
 SHADING_SHARES = (0.25, 0.5, 1.0)
+REFLECTION_SHARES = (0.05, 0.1, 0.15, 0.2, 0.3, 0.4)
+SHARE_SPECULAR_GAINS = (0.25, 0.5, 1.0, 2.0, 4.0)
 CONSTANT_LOBES = tuple((specular, alpha) for specular in (0.04, 0.06, 0.08, 0.12, 0.16)
                        for alpha in (0.15, 0.25, 0.4))
 
@@ -137,6 +155,21 @@ def without_shading(albedo: torch.Tensor, photo: torch.Tensor, share: float) -> 
     log_luminance = torch.log(photo.mean(0) + 1e-3)
     divided = albedo * torch.exp(-share * (log_luminance - log_luminance.mean()))
     return divided * (albedo.mean() / divided.mean().clamp_min(1e-6))
+
+
+def reflection_share(choice, photo: np.ndarray) -> float:
+    """The share of a (3, S, S) photo's mean that ``choice``'s photo-affine albedo network
+    reads as reflection (train.networks.svbrdf_net.PhotoAffineAlbedoNet)."""
+    with torch.no_grad():
+        logit = choice.net.albedo.affine(torch.as_tensor(photo)[None])
+    return float(torch.sigmoid(logit))
+
+
+def share_albedo(photo: torch.Tensor, share: float) -> torch.Tensor:
+    """(1, 3, S, S) relative albedo of a (3, S, S) linear photo less a grey offset of
+    ``share`` of its mean, as the photo-affine albedo network makes it."""
+    logit = torch.full((1, 1), math.log(share / (1.0 - share)))
+    return photo_affine_albedo(logit, photo[None].float())
 
 
 def lobe_spread(choice, photo: np.ndarray) -> float:
@@ -180,6 +213,7 @@ def cache_fold(out: Path, fold: str, samples: int, relights: int) -> list[dict]:
             for network in NETWORKS:
                 row[network] = model_estimate(choices[network], photo)[0]
             row["plastic_lobe_spread"] = lobe_spread(choices["plastic"], photo)
+            row["plastic_share"] = reflection_share(choices["plastic"], photo)
             rows.append(row)
             print(f"{fold}: {i + 1} of {samples} photos", flush=True)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -226,6 +260,15 @@ def policies(row: dict) -> dict[str, dict]:
     for weight in ALBEDO_WEIGHTS:
         chosen[f"unknown+albedo{weight:g}"] = unknown | {
             "albedo": weight * unknown["albedo"] + (1.0 - weight) * row["naive"]["albedo"]}
+    flat = row["naive"]["normal"]
+    chosen["unknown+flat"] = unknown | {"normal": flat}
+    for share in REFLECTION_SHARES:
+        chosen[f"unknown+share={share:g}"] = unknown | {
+            "albedo": share_albedo(row["photo"], share), "normal": flat}
+    share = row["plastic_share"]
+    for gain in SHARE_SPECULAR_GAINS:
+        specular = min(max(gain * share / (2.0 * (1.0 - share)), 1e-3), 50.0)
+        chosen[f"unknown+share-specular{gain:g}"] = with_lobe(row["plastic"], 0.0, specular)
     for specular, alpha in CONSTANT_LOBES:
         chosen[f"plastic+lobe={specular:g},{alpha:g}"] = with_lobe(row["plastic"], 0.0, specular,
                                                                     alpha)
@@ -276,6 +319,13 @@ def cross_validated(errors: dict, family: list[str]) -> tuple[float, dict[str, s
 
 def worst_set(errors: dict, policy: str) -> tuple[str, float]:
     """The set whose relit ratio is highest under ``policy``."""
+    ratios = set_ratios(errors, policy)
+    name = max(ratios, key=ratios.get)
+    return name, ratios[name]
+
+
+def set_ratios(errors: dict, policy: str) -> dict[str, float]:
+    """{set: its relit ratio (sum over its photos, model over naive) under ``policy``}."""
     sums = {}
     for fold in errors:
         for name, model, naive in zip(errors[fold]["sets"], errors[fold][policy],
@@ -283,8 +333,35 @@ def worst_set(errors: dict, policy: str) -> tuple[str, float]:
             total = sums.setdefault(name, [0.0, 0.0])
             total[0] += model
             total[1] += naive
-    name = max(sums, key=lambda n: sums[n][0] / sums[n][1])
-    return name, sums[name][0] / sums[name][1]
+    return {name: model / naive for name, (model, naive) in sums.items()}
+
+
+def share_figure(folds: dict[str, list[dict]], errors: dict, best_share: str,
+                 path: Path) -> None:
+    """OUT/share.png (module docstring): left, per photo, the reflection share plastic's
+    network reads against the truth's relative specular albedo (channel mean; metals, whose
+    truth's specular is above 1, stand apart); right, each set's relit ratio under the default
+    and under ``best_share`` (a unknown+share=<c> policy)."""
+    rows = [row for fold in folds.values() for row in fold]
+    figure = Figure(figsize=(13.0, 4.8))
+    left, right = figure.subplots(1, 2, gridspec_kw={"width_ratios": [1, 2]})
+    truth = [float(row["truth"]["log_specular"].exp().mean()) for row in rows]
+    left.scatter(truth, [row["plastic_share"] for row in rows], s=10)
+    left.set_xscale("log")
+    left.set_xlabel("truth's relative specular albedo")
+    left.set_ylabel("reflection share plastic's network reads")
+    default, constant = set_ratios(errors, "unknown"), set_ratios(errors, best_share)
+    names = sorted(default)
+    positions = np.arange(len(names))
+    right.bar(positions - 0.2, [default[n] for n in names], 0.4, label="unknown (the default)")
+    right.bar(positions + 0.2, [constant[n] for n in names], 0.4, label=best_share)
+    right.axhline(1.0, color="black", linewidth=0.8)
+    right.set_xticks(positions, names, rotation=75, ha="right", fontsize=7)
+    right.set_ylabel("relit RMSE / naive")
+    right.legend(fontsize=8, loc="lower left")
+    figure.tight_layout()
+    with atomic_path(path) as tmp:
+        figure.savefig(tmp, format="png", dpi=100)
 
 
 @click.command()
@@ -320,9 +397,15 @@ def main(out, samples, relights, only):
                 "unknown+normal-gain<g>": ["unknown"] + [
                     f"unknown+normal-gain{g:g}" for g in NORMAL_GAINS],
                 "unknown+albedo<w>": ["unknown"] + [f"unknown+albedo{w:g}"
-                                                   for w in ALBEDO_WEIGHTS]}
+                                                   for w in ALBEDO_WEIGHTS],
+                "unknown+share=<c>": [f"unknown+share={c:g}" for c in REFLECTION_SHARES],
+                "unknown+share-specular<k>": ["unknown"] + [
+                    f"unknown+share-specular{k:g}" for k in SHARE_SPECULAR_GAINS]}
     families = {family: members for family, members in families.items()
                 if all(member in errors["fold1"] for member in members)}
+    if "unknown+share=<c>" in families:
+        best = min(families["unknown+share=<c>"], key=lambda p: ratio(errors, every, p))
+        share_figure(folds, errors, best, out / "share.png")
     for family, members in families.items():
         value, picks = cross_validated(errors, members)
         table[f"{family}, cross-validated"] = {"relit_ratio": value, "picks": picks}
