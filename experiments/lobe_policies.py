@@ -192,7 +192,9 @@ def cache_fold(out: Path, fold: str, samples: int, relights: int) -> list[dict]:
     """What sa-evaluate sees of the fold's photos (module docstring), cached in OUT/cache."""
     path = out / "cache" / f"{fold}.pt"
     if path.is_file():
-        return torch.load(path, weights_only=True)
+        rows = torch.load(path, weights_only=True)
+        if all("plastic_share" in row for row in rows):  # else a cache older than the share's
+            return rows
     kept = list(FOLDS[fold])
     cfg = EvaluationConfig(out=str(out / fold), probes=str(split_probe_folder(out, "validation")),
                            materials=str(linked_folder(out / "sets" / fold, kept,
