@@ -406,7 +406,7 @@ def main(out, samples, relights, only):
     families = {family: members for family, members in families.items()
                 if all(member in errors["fold1"] for member in members)}
     if "unknown+share=<c>" in families:
-        best = min(families["unknown+share=<c>"], key=lambda p: ratio(errors, every, p))
+        best = min(families["unknown+share=<c>"], key=lambda p: table[p]["relit_ratio"])
         share_figure(folds, errors, best, out / "share.png")
     for family, members in families.items():
         value, picks = cross_validated(errors, members)
