@@ -4,18 +4,25 @@ command from the repository and ``../shared/data`` (issue 50, "one reproducible 
     .venv/bin/python scripts/release.py --out WORK [--size full|cpu|toy] [--train-minutes M] \
         [--device cpu|cuda] [--parallel N] [--shared SHARED_DATA]
 
-RECIPE names the networks: the procedural sets each trains on (make-materials class and
-seeds) and its sa-train options; every network is one sa-train run from scratch, labeled
-minibatches rendered on the fly under the training probes (the shared probes less the 8 that
-scripts/real_validation.py holds out). No run sees a real set or a held-out probe: the real
-sets are the validation folds and the test of scripts/real_validation.py.
+RECIPE names the networks and, for each, its stages: the procedural sets each stage trains on
+(make-materials class and seeds) and its sa-train options. A network is a chain of sa-train
+runs, the shipped files' stages (models/README.md): the first from scratch, each later one
+fine-tuning the export of the one before. Labeled minibatches are rendered on the fly under the
+training probes (the shared probes less the 8 that scripts/real_validation.py holds out). No
+run sees a real set or a held-out probe: the real sets are the validation folds and the test of
+scripts/real_validation.py.
 
 Into WORK, each step kept where done, so that the same command continues a cut-off release:
 
+    size.txt                      the size the folder was made at (another is refused)
     sets/<class>-<seed>/          make-materials sets
-    maps/<network>/               links to the material folders of one run
-    runs/<network>/               sa-train runs (each resumes from its newest checkpoint)
-    files/svbrdf-<network>.safetensors   each run's newest checkpoint, exported: the released
+    maps/<network>-<stage>/       links to the material folders of one stage's run
+    runs/<network>-<stage>/       sa-train runs (each resumes from its newest checkpoint;
+                                  <network>-<stage>.init: the digest of the file it started
+                                  from, so that a run started from an older export of the
+                                  stage before starts again)
+    stages/<network>-<stage>.safetensors   the exports later stages start from
+    files/svbrdf-<network>.safetensors   each network's last stage, exported: the released
                                   files
     validation/, test/            scripts/real_validation.py evaluations and tables of every
                                   sa-estimate --class choice (the networks, and unknown:
@@ -31,22 +38,20 @@ Into WORK, each step kept where done, so that the same command continues a cut-o
                                   and whether the files pass the ship rule of
                                   models/README.md (ship_rule_failures)
 
-Time: the runs share ``--train-minutes``. Each is given the share of the minutes left that its
-steps left are of the steps left of the runs whose turn in this call is not over (times
-``--parallel``, the runs trained at once; the last run gets what is left), and stopped (after
-its step, checkpointed) when that is spent; its newest checkpoint is then exported and card.md
-says how many of its steps it reached. A later call continues the runs towards their steps; the
-validation, the test and the larger test are measured once every run has all its steps (an
-unfinished release's card has the runs' table only; on a 2-core CPU the real sets take 15 to 26
-minutes and the shipped files' validation 15 more, the larger test about an hour, half of it
-Mitsuba's renders). SIGTERM or Ctrl-C while the runs train stops the call the same way: the
-sa-train running writes the checkpoint of its step, no other run starts, the card is written,
-and the call exits with status 128 + the signal's number. ``--size toy`` is the same pipeline on
-a few small sets, a small network and a few photos (minutes on a CPU; the tests run it);
-``full`` is the release on a GPU, ``cpu`` the same at an eighth of the steps (SIZES). A work
-folder of size ``cpu`` continues into size ``full``: the same sets, and each run's steps so far
-are the first steps of its longer run (sa-train continues a run into more labeled epochs), so a
-CPU can grow a release over several calls.
+Time: the networks share ``--train-minutes``. Each is given the share of the minutes left that
+its steps left (over its stages) are of the steps left of the networks whose turn in this call
+is not over (times ``--parallel``, the networks trained at once; the last gets what is left),
+and its stages train in order until that is spent (the run training then stops after its step,
+checkpointed); the newest checkpoints are then exported and card.md says how many of its steps
+each network reached. A later call continues the runs towards their steps; the validation, the
+test and the larger test are measured once every run has all its steps (an unfinished
+release's card has the runs' table only; on a 2-core CPU the real sets take 15 to 26 minutes
+and the shipped files' validation 15 more, the larger test about an hour, half of it Mitsuba's
+renders). SIGTERM or Ctrl-C while the runs train stops the call the same way: the sa-train
+running writes the checkpoint of its step, no other run starts, the card is written, and the
+call exits with status 128 + the signal's number. ``--size toy`` is the same pipeline on a few
+small sets, a small network and a few photos (minutes on a CPU; the tests run it); ``full`` is
+the release on a GPU, ``cpu`` the same at a sixteenth of the steps in shorter epochs (SIZES).
 
 The released files are not copied into models/: the shipped files change when a release's
 validation says they should (models/README.md).
@@ -96,27 +101,64 @@ BIN = Path(sys.executable).parent
 
 
 @dataclass(frozen=True)
+class Stage:
+    """One sa-train run of a network's chain. The first starts from scratch; every later one
+    fine-tunes the export of the stage before it (sa-train --init-from, a fresh optimizer)."""
+
+    steps: int
+    """Optimizer steps at size full."""
+    seeds: tuple[int, ...]
+    """make-materials seeds of its sets (seed 1 makes the procedural test's sets)."""
+    options: tuple[str, ...] = ()
+    """sa-train options beyond the common ones (train_command); a later --learning-rate
+    replaces the common one."""
+
+
+@dataclass(frozen=True)
 class Network:
-    """One released file, svbrdf-<name>.safetensors."""
+    """One released file, svbrdf-<name>.safetensors: the last stage's export."""
 
     name: str
     """Its material class too: make-materials --class of its sets."""
-    seeds: tuple[int, ...]
-    """make-materials seeds of its sets (seed 1 makes the procedural test's sets)."""
-    steps: int
-    """Optimizer steps at size full."""
-    options: tuple[str, ...] = ()
-    """sa-train options beyond the common ones (Size, train_command)."""
+    stages: tuple[Stage, ...]
 
 
-SEEDS = (0, 2, 3, 4, 5, 6, 7, 8)
+ALL_SEEDS = (0, 2, 3, 4, 5, 6, 7, 8)
+FOUR_SEEDS = (0, 2, 3, 4)
+MORE_TEXTURES = (*FOUR_SEEDS, 10)
+SETS_AT_FULL = {10: 1000}
+"""make-materials sets of a seed at size full where not 50 (Size.sets_per_seed scales them):
+seed 10 makes plastic's 1,000 more textures."""
+FINE_TUNE = ("--learning-rate", "0.0005")
+PHOTO_AFFINE = ("--albedo-network", "photo-affine")
+RELIT = ("--relit-loss-weight", "300")
+
 RECIPE = (
-    Network("wood", SEEDS, 4600, ("--own-specular",)),
-    Network("plastic", SEEDS, 4600,
-            ("--mix-specular", "--albedo-network", "photo-affine", "--relit-loss-weight", "300")),
-    Network("metal", SEEDS, 3200, ("--own-specular", "--relit-loss-weight", "300")),
+    Network("wood", (Stage(1800, ALL_SEEDS), Stage(2800, ALL_SEEDS, FINE_TUNE))),
+    Network("plastic", (
+        Stage(2000, ALL_SEEDS),
+        Stage(3000, ALL_SEEDS, FINE_TUNE),
+        Stage(1600, FOUR_SEEDS, ("--train-networks", "homogeneous", "--mix-specular",
+                                 *RELIT, *FINE_TUNE)),
+        Stage(1200, FOUR_SEEDS, ("--train-networks", "albedo", "--mix-specular",
+                                 "--learning-rate", "0.001", *PHOTO_AFFINE)),
+        Stage(800, FOUR_SEEDS, ("--train-networks", "albedo,homogeneous", "--mix-specular",
+                                *RELIT, *FINE_TUNE, *PHOTO_AFFINE)),
+        Stage(800, MORE_TEXTURES, ("--train-networks", "homogeneous", "--mix-specular",
+                                   *RELIT, *FINE_TUNE, *PHOTO_AFFINE)),
+        Stage(800, MORE_TEXTURES, ("--train-networks", "homogeneous", "--mix-specular",
+                                   *RELIT, *FINE_TUNE, *PHOTO_AFFINE)),
+        Stage(800, MORE_TEXTURES, ("--train-networks", "albedo", "--mix-specular", *RELIT,
+                                   "--relit-partners", "estimate", *FINE_TUNE, *PHOTO_AFFINE)),
+    )),
+    Network("metal", (Stage(2000, ALL_SEEDS),
+                      Stage(1200, FOUR_SEEDS, ("--train-networks", "homogeneous", *RELIT,
+                                               *FINE_TUNE)))),
 )
-"""The networks of a release and how each is trained."""
+"""The networks of a release and how each is trained: the shipped files' stages
+(models/README.md), each an sa-train run; own specular pairs unless --mix-specular (every
+texture seen with every set's pair). Plastic's stage 4 of the card, a U-Net albedo network that
+its stage 5 replaced by a new photo-affine one, is left out (it changed no weight kept)."""
 
 
 SHIPPED = "shipped-"
@@ -149,11 +191,24 @@ class Size:
 
 
 SIZES = {"full": Size(50, 512, "compact", 1.0, 3200, 16, 512, 100, 60, 3, "full"),
-         "cpu": Size(50, 512, "compact", 0.125, 3200, 16, 512, 100, 60, 3, "full"),
+         "cpu": Size(50, 512, "compact", 0.0625, 1600, 16, 512, 100, 60, 3, "full"),
          "toy": Size(1, 64, "small", 0.0005, 16, 4, 128, 2, 2, 1, "toy")}
-"""``full`` is meant for one GPU call (12,400 steps); ``cpu`` trains an eighth of the steps,
-about 85 minutes of a 2-core CPU, so that a release fits one working session there (the larger
-test's renders, made once per work folder, come on top); ``toy`` runs in minutes (the tests)."""
+"""``full`` is the shipped files' recipe (18,800 steps), meant for a GPU; ``cpu`` trains a
+sixteenth of each stage's steps in epochs of 100 steps (1,700 steps, about 80 minutes of a
+2-core CPU, so that the training fits one working session there; the measurement and the larger
+test's renders come on top); ``toy`` runs in minutes (the tests)."""
+
+
+def check_size(work: Path, size_name: str) -> None:
+    """Note the size of a new work folder in work/size.txt; refuse another size (its runs'
+    epochs differ, so no run of one size continues into another)."""
+    mark = work / "size.txt"
+    if not mark.is_file():
+        with atomic_path(mark) as tmp:
+            tmp.write_text(size_name)
+    elif mark.read_text() != size_name:
+        raise InputError(work, f"made at size {mark.read_text()}, not {size_name}: use a new "
+                               "work folder")
 
 
 def training_probes(shared: Path) -> list[str]:
@@ -168,20 +223,31 @@ def training_probe_folder(work: Path, shared: Path) -> Path:
                          [f"{name}.exr" for name in training_probes(shared)], shared / "probes")
 
 
-def total_steps(network: Network, size: Size) -> int:
-    """Optimizer steps of a run: whole epochs of ``size.epoch_samples``."""
+def total_steps(stage: Stage, size: Size) -> int:
+    """Optimizer steps of a stage's run: whole epochs of ``size.epoch_samples``."""
     per_epoch = size.epoch_samples // size.batch_size
-    return math.ceil(network.steps * size.step_fraction / per_epoch) * per_epoch
+    return math.ceil(stage.steps * size.step_fraction / per_epoch) * per_epoch
+
+
+def network_steps(network: Network, size: Size) -> int:
+    """Optimizer steps of all a network's stages."""
+    return sum(total_steps(stage, size) for stage in network.stages)
+
+
+def set_count(seed: int, size: Size) -> int:
+    """make-materials sets of ``seed`` at ``size`` (SETS_AT_FULL, 50 by default, scaled)."""
+    return max(1, SETS_AT_FULL.get(seed, 50) * size.sets_per_seed // 50)
 
 
 def make_sets(work: Path, size: Size, parallel: int) -> None:
     """make-materials every class and seed of RECIPE into work/sets (kept sets are skipped)."""
-    jobs = [(network.name, seed) for network in RECIPE for seed in network.seeds]
+    jobs = sorted({(network.name, seed) for network in RECIPE for stage in network.stages
+                   for seed in stage.seeds})
 
     def make(job):
         material_class, seed = job
         subprocess.run([str(BIN / "make-materials"), "--class", material_class,
-                        "--count", str(size.sets_per_seed), "--seed", str(seed),
+                        "--count", str(set_count(seed, size)), "--seed", str(seed),
                         "--resolution", str(size.resolution),
                         "--out", str(work / "sets" / f"{material_class}-{seed}")],
                        check=True, stdout=subprocess.DEVNULL)
@@ -190,103 +256,156 @@ def make_sets(work: Path, size: Size, parallel: int) -> None:
         list(pool.map(make, jobs))
 
 
-def maps_folder(work: Path, network: Network) -> Path:
-    """work/maps/<network>: links to the material folders the network trains on."""
-    folder = work / "maps" / network.name
-    for seed in network.seeds:
+def maps_folder(work: Path, network: Network, index: int) -> Path:
+    """work/maps/<network>-<stage>: links to the material folders a stage trains on."""
+    folder = work / "maps" / stage_name(network, index)
+    for seed in network.stages[index].seeds:
         sets = work / "sets" / f"{network.name}-{seed}"
         linked_folder(folder, [p.name for p in sorted(sets.iterdir()) if p.is_dir()], sets)
     return folder
 
 
-def train_command(work: Path, network: Network, maps: Path, size: Size,
-                  device: str) -> list[str]:
-    """The sa-train call of one run on the material folders in ``maps``."""
-    epochs = total_steps(network, size) * size.batch_size // size.epoch_samples
+def stage_name(network: Network, index: int) -> str:
+    """<network>-<stage>, stages counted from 1: the name of its run and maps folders."""
+    return f"{network.name}-{index + 1}"
+
+
+def train_command(work: Path, network: Network, index: int, maps: Path, size: Size,
+                  device: str, init: Path | None) -> list[str]:
+    """The sa-train call of a stage's run on the material folders in ``maps``, from ``init``
+    (the previous stage's export) unless it is the first."""
+    stage = network.stages[index]
+    epochs = total_steps(stage, size) * size.batch_size // size.epoch_samples
     return [str(BIN / "sa-train"),
             "--labeled-maps", str(maps),
             "--probes", str(work / "probes-training"),
-            "--out", str(run_folder(work, network)),
+            "--out", str(run_folder(work, network, index)),
+            *(("--init-from", str(init)) if init else ()),
             "--network", size.network, "--render-size", str(size.render_size),
             "--labeled-epochs", str(epochs), "--self-augmented-epochs", "0",
             "--epoch-samples", str(size.epoch_samples), "--batch-size", str(size.batch_size),
             "--learning-rate", "0.002", "--lr-gamma", "1e-3",
             "--checkpoint-every", str(size.checkpoint_every), "--log-every", "50",
-            "--device", device, *network.options]
+            "--device", device, *stage.options]
 
 
-def run_folder(work: Path, network: Network) -> Path:
-    return work / "runs" / network.name
+def run_folder(work: Path, network: Network, index: int) -> Path:
+    return work / "runs" / stage_name(network, index)
 
 
-def train_runs(work: Path, size: Size, device: str, minutes: float,
-               parallel: int) -> tuple[dict[str, dict], int | None]:
-    """Train (or continue) every network's run within ``minutes``; returns ({network: steps,
-    seconds}, the signal that stopped the call or None).
+def reached_steps(work: Path, network: Network, size: Size) -> list[int]:
+    """Steps each stage's run has reached; a stage counts only once every stage before it has
+    all its steps (until then its start is not final: see fresh_run)."""
+    reached, complete = [], True
+    for index, stage in enumerate(network.stages):
+        steps = newest_step(run_folder(work, network, index) / "checkpoints") if complete else 0
+        reached.append(steps)
+        complete = complete and steps >= total_steps(stage, size)
+    return reached
+
+
+def fresh_run(work: Path, network: Network, index: int, init: Path) -> None:
+    """Remove a stage's run (and its export) if it started from another file than ``init``,
+    the previous stage's current export (as when a release of size cpu grows into size full:
+    the earlier stage trained on), so that it starts again; note ``init``'s digest for a new
+    run."""
+    run = run_folder(work, network, index)
+    noted = run.with_suffix(".init")
+    digest = file_digest(init)
+    if noted.is_file() and noted.read_text() != digest:
+        shutil.rmtree(run, ignore_errors=True)
+        stage_file(work, network, index).unlink(missing_ok=True)
+    run.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(noted) as tmp:
+        tmp.write_text(digest)
+
+
+def train_runs(work: Path, size: Size, device: str, minutes: float, parallel: int,
+               command: str) -> tuple[dict[str, dict], int | None]:
+    """Train (or continue) every network's stages, in order, within ``minutes``; returns
+    ({network: steps, seconds}, the signal that stopped the call or None).
 
     SIGTERM or SIGINT to this process (or to a run's sa-train) stops the call: each sa-train
     running writes the checkpoint of its step (train/training/interruption.py), no further run
     starts, and the same command continues."""
-    maps = {network.name: maps_folder(work, network) for network in RECIPE}
     deadline = time.monotonic() + 60.0 * minutes
     threads = str(max(1, (os.cpu_count() or 1) // max(1, parallel)))
     record = {}
-    waiting = {network.name for network in RECIPE}  # runs whose turn in this call is not over
+    waiting = {network.name for network in RECIPE}  # networks whose turn in this call is not over
     stop = StopRequest()  # taken while the runs train
     stopped_by = []  # the signal that stopped a run's sa-train, once one has
 
     def steps_left(network):
-        reached = newest_step(run_folder(work, network) / "checkpoints")
-        return max(0, total_steps(network, size) - reached)
+        return network_steps(network, size) - sum(reached_steps(work, network, size))
+
+    def run_stage(network, index, end):
+        """Train one stage until its steps, ``end`` or a stop; raise if sa-train fails."""
+        init = None
+        if index:
+            init = export(work, network, index - 1, size, command)
+            fresh_run(work, network, index, init)
+        log = run_folder(work, network, index).with_suffix(".log")
+        log.parent.mkdir(parents=True, exist_ok=True)
+        call = train_command(work, network, index, maps_folder(work, network, index), size,
+                             device, init)
+        with open(log, "a") as output:
+            process = subprocess.Popen(call, stdout=output, stderr=subprocess.STDOUT,
+                                       env=os.environ | {"OMP_NUM_THREADS": threads})
+            recorded = time.monotonic()
+            while process.poll() is None and time.monotonic() < end and not stop.requested:
+                try:
+                    process.wait(timeout=1.0)
+                except subprocess.TimeoutExpired:
+                    if time.monotonic() - recorded >= 60.0:
+                        recorded = time.monotonic()
+                        record_seconds(network)
+            if process.poll() is None:
+                process.terminate()  # sa-train writes the checkpoint of its step and
+                process.wait()  # exits (a second signal, as after Ctrl-C, is ignored)
+            elif process.returncode - 128 in SIGNALS:
+                stopped_by.append(process.returncode - 128)  # signalled, checkpoint kept
+            elif process.returncode:
+                raise InputError(log, f"sa-train failed (exit status {process.returncode})")
+
+    started, before = {}, {}
+
+    def record_seconds(network) -> float:
+        # Written every minute, so that a call killed by SIGKILL keeps its time too.
+        seconds = before[network.name] + time.monotonic() - started[network.name]
+        with atomic_path(seconds_file(work, network)) as tmp:
+            tmp.write_text(f"{seconds:.1f}")
+        return seconds
 
     def train(network):
         allowance = time_share(deadline - time.monotonic(), parallel, steps_left(network),
                                sum(steps_left(n) for n in RECIPE if n.name in waiting))
-        start = time.monotonic()
-        run = run_folder(work, network)
-        run.parent.mkdir(parents=True, exist_ok=True)
-        timing = run.with_suffix(".seconds")
-        before = float(timing.read_text()) if timing.is_file() else 0.0
-
-        def record_seconds() -> float:
-            # Written every minute, so that a call killed by SIGKILL keeps its time too.
-            seconds = before + time.monotonic() - start
-            with atomic_path(timing) as tmp:
-                tmp.write_text(f"{seconds:.1f}")
-            return seconds
-
-        if steps_left(network) and allowance > 0 and not stop.requested and not stopped_by:
-            log = run.with_suffix(".log")
-            command = train_command(work, network, maps[network.name], size, device)
-            with open(log, "a") as output:
-                process = subprocess.Popen(command, stdout=output, stderr=subprocess.STDOUT,
-                                           env=os.environ | {"OMP_NUM_THREADS": threads})
-                end, recorded = start + allowance, start
-                while (process.poll() is None and time.monotonic() < end
-                       and not stop.requested):
-                    try:
-                        process.wait(timeout=1.0)
-                    except subprocess.TimeoutExpired:
-                        if time.monotonic() - recorded >= 60.0:
-                            recorded = time.monotonic()
-                            record_seconds()
-                if process.poll() is None:
-                    process.terminate()  # sa-train writes the checkpoint of its step and
-                    process.wait()  # exits (a second signal, as after Ctrl-C, is ignored)
-                elif process.returncode - 128 in SIGNALS:
-                    stopped_by.append(process.returncode - 128)  # signalled, checkpoint kept
-                elif process.returncode:
-                    raise InputError(log, f"sa-train failed (exit status {process.returncode})")
-        seconds = record_seconds()
-        record[network.name] = {"steps": newest_step(run / "checkpoints"),
-                                "of_steps": total_steps(network, size),
-                                "seconds": round(seconds, 1)}
+        started[network.name] = time.monotonic()
+        end = started[network.name] + allowance
+        timing = seconds_file(work, network)
+        timing.parent.mkdir(parents=True, exist_ok=True)
+        before[network.name] = float(timing.read_text()) if timing.is_file() else 0.0
+        for index, stage in enumerate(network.stages):
+            if reached_steps(work, network, size)[index] >= total_steps(stage, size):
+                continue
+            if time.monotonic() >= end or stop.requested or stopped_by:
+                break
+            run_stage(network, index, end)
+            if reached_steps(work, network, size)[index] < total_steps(stage, size):
+                break  # out of time or stopped: a later call continues it
+        record[network.name] = {"steps": network_steps(network, size) - steps_left(network),
+                                "of_steps": network_steps(network, size),
+                                "seconds": round(record_seconds(network), 1)}
         waiting.discard(network.name)
         click.echo(json.dumps({"run": network.name, **record[network.name]}))
 
     with stop, ThreadPoolExecutor(max(1, parallel)) as pool:
         list(pool.map(train, RECIPE))
     return record, stop.signal_number or (stopped_by[0] if stopped_by else None)
+
+
+def seconds_file(work: Path, network: Network) -> Path:
+    """work/runs/<network>.seconds: the minutes its stages have trained, over every call."""
+    return work / "runs" / f"{network.name}.seconds"
 
 
 def time_share(seconds_left: float, parallel: int, steps_left: int,
@@ -298,30 +417,41 @@ def time_share(seconds_left: float, parallel: int, steps_left: int,
     return min(share, seconds_left)
 
 
-def export(work: Path, network: Network, size_name: str, command: str) -> Path:
-    """files/svbrdf-<network>.safetensors from the run's newest checkpoint (written again only
-    when the run has a newer one)."""
-    path = exported_file(work, network)
-    newest = checkpoint_files(run_folder(work, network) / "checkpoints")
+def export(work: Path, network: Network, index: int, size: Size, command: str) -> Path:
+    """The export of a stage's newest checkpoint: work/stages/<network>-<stage>.safetensors,
+    the last stage's work/files/svbrdf-<network>.safetensors (written again only when the run
+    has a newer checkpoint)."""
+    path = stage_file(work, network, index)
+    run = run_folder(work, network, index)
+    newest = checkpoint_files(run / "checkpoints")
     if not newest:
-        raise InputError(run_folder(work, network), "no checkpoint to export: give the "
-                                                    "training more minutes")
+        raise InputError(run, "no checkpoint to export: give the training more minutes")
     if path.is_file() and model_metadata(path, FORMAT, "model").get(
             "trained_from") == newest[-1].name:
         return path
     net = load_network(newest[-1])
+    earlier = sum(total_steps(stage, size) for stage in network.stages[:index])
     path.parent.mkdir(parents=True, exist_ok=True)
     save_model(net, path, {
         "class": network.name, "trained_from": newest[-1].name,
         "command": command,
         "recipe": json.dumps(dataclasses.asdict(network)),
-        "steps": f"{checkpoint_step(newest[-1])} of {total_steps(network, SIZES[size_name])}"})
+        "steps": f"{earlier + checkpoint_step(newest[-1])} of {network_steps(network, size)}",
+        "stage": f"{index + 1} of {len(network.stages)}"})
     return path
 
 
+def stage_file(work: Path, network: Network, index: int) -> Path:
+    """Where a stage's run is exported: the last stage's file is the released one
+    (exported_file), the others' work/stages/<network>-<stage>.safetensors."""
+    if index == len(network.stages) - 1:
+        return exported_file(work, network)
+    return work / "stages" / f"{stage_name(network, index)}.safetensors"
+
+
 def exported_file(work: Path, network: Network) -> Path:
-    """work/files/svbrdf-<network>.safetensors: the export of one run (the file its --class
-    choice estimates with, among the release's files)."""
+    """work/files/svbrdf-<network>.safetensors: the released file of a network (the file its
+    --class choice estimates with, among the release's files)."""
     return class_model_file(network.name, work / "files")
 
 
@@ -470,16 +600,17 @@ def main(out, size_name, train_minutes, device, parallel, shared):
             if not (shared / folder).is_dir():
                 raise InputError(shared / folder, "not found (the shared data folder is needed)")
         work.mkdir(parents=True, exist_ok=True)
+        check_size(work, size_name)
         training_probe_folder(work, shared)
         make_sets(work, size, parallel)
-        record, stopped_by = train_runs(work, size, device, train_minutes, parallel)
+        record, stopped_by = train_runs(work, size, device, train_minutes, parallel, command)
         if stopped_by:
             write_card(work, command, record, None)
             click.echo(f"release.py: stopped by {signal.Signals(stopped_by).name}: each run "
                        f"keeps the checkpoint of its step, the same command continues", err=True)
             raise SystemExit(128 + stopped_by)
         for network in RECIPE:
-            export(work, network, size_name, command)
+            export(work, network, len(network.stages) - 1, size, command)
         finished = all(row["steps"] >= row["of_steps"] for row in record.values())
         tables = None
         if finished:

@@ -10,6 +10,7 @@ import pytest
 from safetensors import safe_open
 
 from render.common.errors import InputError
+from render.common.resume import file_digest
 from tests.conftest import REPO, SHARED_DATA, needs_shared
 from train.estimation.network_choice import CLASSES
 
@@ -23,24 +24,66 @@ from release import (  # noqa: E402
     RECIPE,
     SHIPPED,
     SIZES,
+    check_size,
+    fresh_run,
+    network_steps,
+    run_folder,
     ship_rule_failures,
+    stage_file,
     time_share,
     total_steps,
     training_probes,
     write_card,
 )
 
+SEEDS = {seed for network in RECIPE for stage in network.stages for seed in stage.seeds}
+
 
 def test_no_run_trains_on_the_procedural_test_seed():
-    assert all(1 not in network.seeds for network in RECIPE)  # make-materials seed 1: the test
+    assert 1 not in SEEDS  # make-materials seed 1: the test
 
 
 def test_runs_are_whole_epochs():
     for size in SIZES.values():
         per_epoch = size.epoch_samples // size.batch_size
         for network in RECIPE:
-            steps = total_steps(network, size)
-            assert steps % per_epoch == 0 and steps >= network.steps * size.step_fraction
+            for stage in network.stages:
+                steps = total_steps(stage, size)
+                assert steps % per_epoch == 0 and steps >= stage.steps * size.step_fraction
+
+
+def test_the_full_recipe_is_the_shipped_files_steps():
+    """models/README.md's stages (plastic less its stage 4, whose albedo network stage 5
+    replaced): wood 1,800 + 2,800, plastic 2,000 + 3,000 + 1,600 + 1,200 + 4 x 800, metal
+    2,000 + 1,200."""
+    assert {network.name: [total_steps(stage, SIZES["full"]) for stage in network.stages]
+            for network in RECIPE} == {"wood": [1800, 2800],
+                                       "plastic": [2000, 3000, 1600, 1200, 800, 800, 800, 800],
+                                       "metal": [2000, 1200]}
+    assert sum(network_steps(network, SIZES["cpu"]) for network in RECIPE) == 1700
+
+
+def test_a_stage_started_from_an_older_export_starts_again(tmp_path):
+    network = RECIPE[0]
+    run, init = run_folder(tmp_path, network, 1), tmp_path / "first.safetensors"
+    init.write_bytes(b"stage 1, 200 steps")
+    fresh_run(tmp_path, network, 1, init)  # a new run notes what it starts from
+    (run / "checkpoints").mkdir(parents=True)
+    stage_file(tmp_path, network, 1).parent.mkdir(parents=True)
+    stage_file(tmp_path, network, 1).write_bytes(b"its export")
+    fresh_run(tmp_path, network, 1, init)  # the same start: the run is kept
+    assert (run / "checkpoints").is_dir() and stage_file(tmp_path, network, 1).is_file()
+    init.write_bytes(b"stage 1, 400 steps")
+    fresh_run(tmp_path, network, 1, init)  # another start: the run and its export go
+    assert not run.exists() and not stage_file(tmp_path, network, 1).exists()
+    assert run.with_suffix(".init").read_text() == file_digest(init)
+
+
+def test_a_work_folder_keeps_its_size(tmp_path):
+    check_size(tmp_path, "cpu")
+    check_size(tmp_path, "cpu")
+    with pytest.raises(InputError, match="made at size cpu, not full"):
+        check_size(tmp_path, "full")
 
 
 def test_the_procedural_test_holds_the_cards_larger_test_and_nothing_trained_on():
@@ -53,7 +96,7 @@ def test_the_procedural_test_holds_the_cards_larger_test_and_nothing_trained_on(
         ("more-0", 0, 20, False), ("more-1", 1, 20, False), ("more-2", 2, 20, False),
         ("more-3", 3, 20, False)]
     assert sorted(i for _, _, indices, _ in found for i in indices) == list(range(120))
-    assert all(SEED not in network.seeds for network in RECIPE)
+    assert SEED not in SEEDS
     held_out = {probe for pair in HELD_OUT_PAIRS for probe in pair}
     assert held_out == set(VALIDATION_PROBES) | set(TEST_PROBES)
 
@@ -91,7 +134,7 @@ sys.exit(int(sys.argv[2]))
 def fake_training(monkeypatch, tmp_path, behaviour: str):
     """train_runs at toy size with FAKE_SA_TRAIN for sa-train; returns the file of its starts."""
     starts = tmp_path / "starts.txt"
-    monkeypatch.setattr(release, "maps_folder", lambda work, network: work)
+    monkeypatch.setattr(release, "maps_folder", lambda work, network, index: work)
     monkeypatch.setattr(release, "train_command", lambda *arguments: [
         sys.executable, "-c", FAKE_SA_TRAIN, str(starts), behaviour])
     return starts
@@ -100,7 +143,7 @@ def fake_training(monkeypatch, tmp_path, behaviour: str):
 def test_a_signal_to_the_release_stops_its_sa_train_and_starts_no_other_run(monkeypatch,
                                                                              tmp_path):
     starts = fake_training(monkeypatch, tmp_path, "signal-the-release")
-    record, stopped_by = release.train_runs(tmp_path, SIZES["toy"], "cpu", 10.0, 1)
+    record, stopped_by = release.train_runs(tmp_path, SIZES["toy"], "cpu", 10.0, 1, "release.py")
     assert stopped_by == signal.SIGTERM
     assert starts.read_text() == "started\n"  # the first run only; it took its SIGTERM
     assert list(record) == [network.name for network in RECIPE]
@@ -112,11 +155,11 @@ def test_a_stopped_sa_train_stops_the_release_and_a_failed_one_fails_it(monkeypa
     stopped.mkdir()
     failed.mkdir()
     starts = fake_training(monkeypatch, stopped, str(128 + signal.SIGINT))
-    _, stopped_by = release.train_runs(stopped, SIZES["toy"], "cpu", 10.0, 1)
+    _, stopped_by = release.train_runs(stopped, SIZES["toy"], "cpu", 10.0, 1, "release.py")
     assert stopped_by == signal.SIGINT and starts.read_text() == "started\n"
     fake_training(monkeypatch, failed, "1")
-    with pytest.raises(InputError, match=r"runs/wood\.log: sa-train failed \(exit status 1\)"):
-        release.train_runs(failed, SIZES["toy"], "cpu", 10.0, 1)
+    with pytest.raises(InputError, match=r"runs/wood-1\.log: sa-train failed \(exit status 1\)"):
+        release.train_runs(failed, SIZES["toy"], "cpu", 10.0, 1, "release.py")
 
 
 def test_an_unfinished_release_has_the_runs_table_and_no_figures(tmp_path):
@@ -179,13 +222,22 @@ def test_the_release_at_toy_size(tmp_path):
     assert done.returncode == 0, done.stderr[-2000:]
     card = (work / "card.md").read_text()
     for network in RECIPE:
-        steps = total_steps(network, SIZES["toy"])
+        steps = network_steps(network, SIZES["toy"])
         assert f"| {network.name} | {steps} of {steps} |" in card
-        # it trains on its class's procedural sets of its seeds, and nothing else
-        trained_on = {path.resolve() for path in (work / "maps" / network.name).iterdir()}
-        assert trained_on == {path.resolve() for seed in network.seeds
-                              for path in (work / "sets" / f"{network.name}-{seed}").iterdir()
-                              if path.is_dir()}
+        for index, stage in enumerate(network.stages):
+            # each stage trains on its class's procedural sets of its seeds, and nothing else
+            maps = work / "maps" / f"{network.name}-{index + 1}"
+            assert {path.resolve() for path in maps.iterdir()} == {
+                path.resolve() for seed in stage.seeds
+                for path in (work / "sets" / f"{network.name}-{seed}").iterdir()
+                if path.is_dir()}
+            config = json.loads((run_folder(work, network, index) / "config.json").read_text())
+            if index:  # from the export of the stage before
+                assert config["init_from"] == str(stage_file(work, network, index - 1))
+                assert run_folder(work, network, index).with_suffix(".init").read_text() == \
+                    file_digest(stage_file(work, network, index - 1))
+            else:
+                assert config["init_from"] is None
         path = work / "files" / f"svbrdf-{network.name}.safetensors"
         with safe_open(str(path), framework="pt") as file:
             metadata = file.metadata()
