@@ -157,8 +157,9 @@ RECIPE = (
 )
 """The networks of a release and how each is trained: the shipped files' stages
 (models/README.md), each an sa-train run; own specular pairs unless --mix-specular (every
-texture seen with every set's pair). Plastic's stage 4 of the card, a U-Net albedo network that
-its stage 5 replaced by a new photo-affine one, is left out (it changed no weight kept)."""
+texture seen with every set's pair). Plastic's fourth stage as it was made, a U-Net albedo
+network that the next stage replaced by a new photo-affine one, is left out (it changed no
+weight kept), so its later stages are numbered one lower here than in the files' metadata."""
 
 
 SHIPPED = "shipped-"
@@ -171,7 +172,8 @@ WORST_SET_RELIT = 1.10
 @dataclass(frozen=True)
 class Size:
     sets_per_seed: int
-    """make-materials sets of each class and seed."""
+    """make-materials sets of each class and seed (50 at size full; SETS_AT_FULL's seeds in
+    proportion)."""
     resolution: int
     """Side (px) of the procedural maps."""
     network: str
