@@ -308,9 +308,8 @@ def reached_steps(work: Path, network: Network, size: Size) -> list[int]:
 
 def fresh_run(work: Path, network: Network, index: int, init: Path) -> None:
     """Remove a stage's run (and its export) if it started from another file than ``init``,
-    the previous stage's current export (as when a release of size cpu grows into size full:
-    the earlier stage trained on), so that it starts again; note ``init``'s digest for a new
-    run."""
+    the previous stage's current export (as when RECIPE gave the stage before more steps
+    since), so that it starts again; note ``init``'s digest for a new run."""
     run = run_folder(work, network, index)
     noted = run.with_suffix(".init")
     digest = file_digest(init)
@@ -406,7 +405,7 @@ def train_runs(work: Path, size: Size, device: str, minutes: float, parallel: in
 
 
 def seconds_file(work: Path, network: Network) -> Path:
-    """work/runs/<network>.seconds: the minutes its stages have trained, over every call."""
+    """work/runs/<network>.seconds: the seconds its stages have trained, over every call."""
     return work / "runs" / f"{network.name}.seconds"
 
 
