@@ -42,16 +42,17 @@ Time: the networks share ``--train-minutes``. Each is given the share of the min
 its steps left (over its stages) are of the steps left of the networks whose turn in this call
 is not over (times ``--parallel``, the networks trained at once; the last gets what is left),
 and its stages train in order until that is spent (the run training then stops after its step,
-checkpointed); the newest checkpoints are then exported and card.md says how many of its steps
-each network reached. A later call continues the runs towards their steps; the validation, the
-test and the larger test are measured once every run has all its steps (an unfinished
-release's card has the runs' table only; on a 2-core CPU the real sets take 15 to 26 minutes
-and the shipped files' validation 15 more, the larger test about an hour, half of it Mitsuba's
-renders). SIGTERM or Ctrl-C while the runs train stops the call the same way: the sa-train
-running writes the checkpoint of its step, no other run starts, the card is written, and the
-call exits with status 128 + the signal's number. ``--size toy`` is the same pipeline on a few
-small sets, a small network and a few photos (minutes on a CPU; the tests run it); ``full`` is
-the release on a GPU, ``cpu`` the same at a sixteenth of the steps in shorter epochs (SIZES).
+checkpointed); the newest checkpoint of each network's last stage, where it has one, is then
+exported and card.md says how many of its steps each network reached. A later call continues the
+runs towards their steps; the validation, the test and the larger test are measured once every
+run has all its steps (an unfinished release's card has the runs' table only; on a 2-core CPU
+the real sets take 15 to 26 minutes and the shipped files' validation 15 more, the larger test
+about an hour, half of it Mitsuba's renders). SIGTERM or Ctrl-C while the runs train stops the
+call the same way: the sa-train running writes the checkpoint of its step, no other run starts,
+the card is written, and the call exits with status 128 + the signal's number. ``--size toy`` is
+the same pipeline on a few small sets, a small network and a few photos (minutes on a CPU; the
+tests run it); ``full`` is the release on a GPU, ``cpu`` the same at a sixteenth of the steps in
+shorter epochs (SIZES).
 
 The released files are not copied into models/: the shipped files change when a release's
 validation says they should (models/README.md).
@@ -442,6 +443,18 @@ def export(work: Path, network: Network, index: int, size: Size, command: str) -
     return path
 
 
+def export_files(work: Path, size: Size, command: str) -> list[str]:
+    """Export each network's last stage where its run has a checkpoint (a network whose last
+    stage has not started has no file yet); returns the networks exported."""
+    exported = []
+    for network in RECIPE:
+        last = len(network.stages) - 1
+        if checkpoint_files(run_folder(work, network, last) / "checkpoints"):
+            export(work, network, last, size, command)
+            exported.append(network.name)
+    return exported
+
+
 def stage_file(work: Path, network: Network, index: int) -> Path:
     """Where a stage's run is exported: the last stage's file is the released one
     (exported_file), the others' work/stages/<network>-<stage>.safetensors."""
@@ -610,8 +623,7 @@ def main(out, size_name, train_minutes, device, parallel, shared):
             click.echo(f"release.py: stopped by {signal.Signals(stopped_by).name}: each run "
                        f"keeps the checkpoint of its step, the same command continues", err=True)
             raise SystemExit(128 + stopped_by)
-        for network in RECIPE:
-            export(work, network, len(network.stages) - 1, size, command)
+        export_files(work, size, command)
         finished = all(row["steps"] >= row["of_steps"] for row in record.values())
         tables = None
         if finished:
