@@ -454,6 +454,24 @@ def test_training_one_network_alone_leaves_the_others_as_they_were(trained_run, 
     assert wrong.exit_code != 0 and "name some of homogeneous, albedo, normal" in wrong.output
 
 
+def test_the_networks_trained_are_the_same_whether_or_not_the_albedo_network_trains(
+        dataset, tmp_path):
+    """From scratch on the same minibatches, training the normal and homogeneous networks
+    alone gives them bit for bit the weights they get beside the albedo network (each network
+    its own loss, no relit loss): scripts/release.py's plastic stages before its photo-affine
+    albedo network leave the albedo network out."""
+    models = {}
+    for parts in ("albedo,normal,homogeneous", "normal,homogeneous"):
+        result = train(dataset, tmp_path / parts, "--labeled-epochs", "1",
+                       "--self-augmented-epochs", "0", "--train-networks", parts)
+        assert result.exit_code == 0, result.output
+        models[parts] = load_checkpoint(
+            checkpoint_files(tmp_path / parts / "checkpoints")[-1])["model"]
+    every, without = models.values()
+    differ = {name.split(".")[0] for name in every if not torch.equal(every[name], without[name])}
+    assert differ == {"albedo"}
+
+
 def test_relit_partners_are_the_frozen_networks_estimates_or_the_truth(trained_run, dataset,
                                                                       tmp_path):
     """Training the homogeneous network alone: with relit partners "estimate" the relit loss
