@@ -455,19 +455,16 @@ def test_training_one_network_alone_leaves_the_others_as_they_were(trained_run, 
 
 
 def test_the_networks_trained_are_the_same_whether_or_not_the_albedo_network_trains(
-        dataset, tmp_path):
-    """From scratch on the same minibatches, training the normal and homogeneous networks
-    alone gives them bit for bit the weights they get beside the albedo network (each network
+        trained_run, dataset, tmp_path):
+    """From scratch on the same minibatches as trained_run (every network), training the
+    normal and homogeneous networks alone gives them bit for bit the same weights (each network
     its own loss, no relit loss): scripts/release.py's plastic stages before its photo-affine
     albedo network leave the albedo network out."""
-    models = {}
-    for parts in ("albedo,normal,homogeneous", "normal,homogeneous"):
-        result = train(dataset, tmp_path / parts, "--labeled-epochs", "1",
-                       "--self-augmented-epochs", "0", "--train-networks", parts)
-        assert result.exit_code == 0, result.output
-        models[parts] = load_checkpoint(
-            checkpoint_files(tmp_path / parts / "checkpoints")[-1])["model"]
-    every, without = models.values()
+    result = train(dataset, tmp_path / "run", "--labeled-epochs", "1",
+                   "--self-augmented-epochs", "0", "--train-networks", "normal,homogeneous")
+    assert result.exit_code == 0, result.output
+    every, without = (load_checkpoint(checkpoint_files(run / "checkpoints")[-1])["model"]
+                      for run in (trained_run, tmp_path / "run"))
     differ = {name.split(".")[0] for name in every if not torch.equal(every[name], without[name])}
     assert differ == {"albedo"}
 
